@@ -1,0 +1,1 @@
+//! Sloth rig: skeleton, FK, CCD IK.

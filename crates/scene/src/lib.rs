@@ -1,0 +1,1 @@
+//! Forest scene: supports, presets, glTF, traces.
