@@ -1,1 +1,23 @@
-//! Forest scene: supports, presets, glTF, traces.
+//! Forest scene for slothsim: supports (trunks and branches), the procedural
+//! forest, the thesis scenario presets, glTF import/export and BVH traces.
+//!
+//! Conventions: metres, radians, +Y up, right-handed (glTF axes). No ECS here.
+
+mod error;
+mod forest;
+mod gltf_io;
+mod model;
+mod primitive;
+mod trace;
+
+pub use error::{SceneError, TraceError};
+pub use forest::{ForestConfig, default_forest, generate_forest};
+pub use gltf_io::{export_glb, export_gltf_json, import_slice, read_scene, write_scene};
+pub use model::{
+    Bounds, Scene, Support, SupportId, SupportKind, TRUNK_TILT_DEG, TriMesh, closest_on_segment,
+    tilt_of,
+};
+pub use trace::{
+    BoxOverlap, BvhStats, LineTrace, SceneQuery, SphereSweep, TraceHit, TraceRequest, TraceResult,
+    TraceScene,
+};
