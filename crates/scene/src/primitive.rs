@@ -140,23 +140,27 @@ pub fn ray_round_cone(o: Vec3, d: Vec3, a: Vec3, b: Vec3, ra: f32, rb: f32) -> O
 }
 
 /// Ray vs sphere; entry point with `t ≥ 0` (origin inside ⇒ `None`).
+/// Uses the numerically robust form (Haines et al., *Ray Tracing Gems* ch. 7)
+/// so distant origins still give points on the surface.
 #[inline]
 pub fn ray_sphere(o: Vec3, d: Vec3, c: Vec3, r: f32) -> Option<(f32, Vec3)> {
     let oc = o - c;
-    let b = oc.dot(d);
     let cc = oc.dot(oc) - r * r;
     if cc < 0.0 {
         return None;
     }
-    let h = b * b - cc;
-    if h < 0.0 {
+    let b = -oc.dot(d);
+    let f = oc + d * b;
+    let disc = r * r - f.dot(f);
+    if disc < 0.0 || b <= 0.0 {
         return None;
     }
-    let t = -b - h.sqrt();
+    let q = b + disc.sqrt();
+    let t = cc / q;
     if t < 0.0 {
         return None;
     }
-    Some((t, (oc + d * t) / r))
+    Some((t, (oc + d * t).normalize_or(-d)))
 }
 
 /// Ray vs triangle (two-sided Möller–Trumbore). Normal faces the ray.
