@@ -67,7 +67,7 @@ struct Doc {
 
 impl Doc {
     fn view(&mut self, bytes: &[u8]) -> usize {
-        while self.bin.len() % 4 != 0 {
+        while !self.bin.len().is_multiple_of(4) {
             self.bin.push(0);
         }
         self.views
@@ -147,11 +147,11 @@ impl Doc {
 
     fn glb(&self, roots: &[usize]) -> Vec<u8> {
         let mut json = serde_json::to_vec(&self.root(roots, None)).unwrap();
-        while json.len() % 4 != 0 {
+        while !json.len().is_multiple_of(4) {
             json.push(b' ');
         }
         let mut bin = self.bin.clone();
-        while bin.len() % 4 != 0 {
+        while !bin.len().is_multiple_of(4) {
             bin.push(0);
         }
         let total = 12 + 8 + json.len() + if bin.is_empty() { 0 } else { 8 + bin.len() };
@@ -939,4 +939,91 @@ fn write_into_missing_directory_is_io_error() {
         matches!(err, SceneError::Io { .. }) && err.to_string().contains("forest.glb"),
         "{err}"
     );
+}
+
+#[test]
+fn far_away_tiny_mesh_does_not_overflow_the_weld_grid() {
+    let mut doc = Doc::default();
+    let (p, i) = tube(Vec3::ZERO, Vec3::new(0.0, 3.0, 0.0), 0.1, 8, 4);
+    let far: Vec<Vec3> = p.iter().map(|q| *q + Vec3::splat(1e30)).collect();
+    let prim = doc.prim(&far, Some(&i), 4);
+    let mesh = doc.mesh(vec![prim]);
+    let node = doc.node(json!({"mesh": mesh}));
+    // All vertices collapse at this magnitude: an error, not a panic.
+    let _ = import_slice(&doc.glb(&[node]), "far.glb");
+}
+
+/// A corrupted file gives a valid scene or an error that the up-front checks
+/// produced (not the catch-all for a panicking glTF reader).
+fn check_fuzz_result(result: Result<Scene, SceneError>) -> Result<(), TestCaseError> {
+    match result {
+        Ok(scene) => {
+            for s in scene.supports() {
+                prop_assert!(s.nodes.iter().all(|n| n.is_finite()));
+                prop_assert!(s.radii.iter().all(|r| r.is_finite() && *r > 0.0));
+            }
+        }
+        Err(e) => prop_assert!(!e.to_string().contains("reader failed"), "{e}"),
+    }
+    Ok(())
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(200))]
+    /// Corrupted files give an error or a valid scene, never a panic or NaN.
+    #[test]
+    fn corrupted_files_never_panic(
+        edits in prop::collection::vec((any::<prop::sample::Index>(), any::<u8>()), 1..8),
+        gltf_text in any::<bool>(),
+    ) {
+        let mut bytes = if gltf_text {
+            export_gltf_json(&sample_scene()).into_bytes()
+        } else {
+            export_glb(&sample_scene())
+        };
+        for (at, value) in edits {
+            let i = at.index(bytes.len());
+            bytes[i] = value;
+        }
+        check_fuzz_result(import_slice(&bytes, "fuzz.glb"))?;
+    }
+}
+
+/// Pointers (RFC 6901) to every number in a JSON value.
+fn number_pointers(v: &Value, at: String, out: &mut Vec<String>) {
+    match v {
+        Value::Number(_) => out.push(at),
+        Value::Array(a) => a
+            .iter()
+            .enumerate()
+            .for_each(|(i, x)| number_pointers(x, format!("{at}/{i}"), out)),
+        Value::Object(o) => o
+            .iter()
+            .for_each(|(k, x)| number_pointers(x, format!("{at}/{k}"), out)),
+        _ => {}
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(300))]
+    /// Well-formed JSON with wrong numbers (indices, counts, offsets, extras)
+    /// gives an error or a valid scene, never a panic.
+    #[test]
+    fn wrong_numbers_never_panic(
+        edits in prop::collection::vec(
+            (any::<prop::sample::Index>(),
+             prop_oneof![Just(json!(0)), Just(json!(1)), Just(json!(-1)), Just(json!(7)), Just(json!(1000)),
+                         Just(json!(4294967295u64)), Just(json!(1e39)), Just(json!(0.5))]),
+            1..4),
+    ) {
+        let mut root: Value = serde_json::from_str(&export_gltf_json(&sample_scene())).unwrap();
+        let mut pointers = Vec::new();
+        number_pointers(&root, String::new(), &mut pointers);
+        for (at, value) in edits {
+            let pointer = &pointers[at.index(pointers.len())];
+            *root.pointer_mut(pointer).unwrap() = value;
+        }
+        let bytes = serde_json::to_vec(&root).unwrap();
+        check_fuzz_result(import_slice(&bytes, "fuzz.gltf"))?;
+    }
 }

@@ -184,7 +184,7 @@ fn push_view(
     bytes: &[u8],
     target: json::buffer::Target,
 ) -> json::Index<json::buffer::View> {
-    while bin.len() % 4 != 0 {
+    while !bin.len().is_multiple_of(4) {
         bin.push(0);
     }
     let offset = bin.len();

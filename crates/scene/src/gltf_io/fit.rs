@@ -61,15 +61,18 @@ pub(super) fn weld(positions: &[Vec3], triangles: &[[u32; 3]]) -> (Vec<Vec3>, Ve
         'search: for dx in -1..=1 {
             for dy in -1..=1 {
                 for dz in -1..=1 {
-                    let key = [c[0] + dx, c[1] + dy, c[2] + dz];
-                    if let Some(list) = grid.get(&key) {
-                        if let Some(&i) = list
+                    let key = [
+                        c[0].saturating_add(dx),
+                        c[1].saturating_add(dy),
+                        c[2].saturating_add(dz),
+                    ];
+                    if let Some(list) = grid.get(&key)
+                        && let Some(&i) = list
                             .iter()
                             .find(|&&i| welded[i as usize].distance(p) <= tol)
-                        {
-                            found = Some(i);
-                            break 'search;
-                        }
+                    {
+                        found = Some(i);
+                        break 'search;
                     }
                 }
             }
@@ -172,7 +175,7 @@ pub(super) fn fit_part(positions: &[Vec3], triangles: &[[u32; 3]]) -> Option<Fit
         .iter()
         .map(|p| (*p - origin).length())
         .fold(0.0, f64::max);
-    if !(area > 1e-12 * scale * scale) || scale <= 0.0 {
+    if area.is_nan() || area <= 1e-12 * scale * scale || scale <= 0.0 {
         return None;
     }
     mean /= area;
@@ -186,7 +189,7 @@ pub(super) fn fit_part(positions: &[Vec3], triangles: &[[u32; 3]]) -> Option<Fit
     let (mut order, v) = ([0usize, 1, 2], values);
     order.sort_by(|&i, &j| v[j].total_cmp(&v[i]));
     let (l0, l1) = (values[order[0]], values[order[1]]);
-    if !(l0 > 0.0) || l1 <= 1e-9 * l0 {
+    if l0.is_nan() || l0 <= 0.0 || l1 <= 1e-9 * l0 {
         return None; // collinear
     }
     let mut dir = DVec3::from_array(vectors[order[0]]).normalize();
@@ -217,11 +220,11 @@ pub(super) fn fit_part(positions: &[Vec3], triangles: &[[u32; 3]]) -> Option<Fit
     let s_min = proj.iter().map(|p| p.0).fold(f64::INFINITY, f64::min);
     let s_max = proj.iter().map(|p| p.0).fold(f64::NEG_INFINITY, f64::max);
     let length = s_max - s_min;
-    if !(length >= MIN_LENGTH) {
+    if length.is_nan() || length < MIN_LENGTH {
         return None;
     }
     let r_all = median(proj.iter().map(|p| p.1).collect())?;
-    if !(r_all > 1e-6) {
+    if r_all.is_nan() || r_all <= 1e-6 {
         return None;
     }
     let segments = ((length / (4.0 * r_all)).ceil() as usize)
@@ -310,16 +313,14 @@ fn jacobi_eigen(mut a: [[f64; 3]; 3]) -> ([f64; 3], [[f64; 3]; 3]) {
             let c = 1.0 / (t * t + 1.0).sqrt();
             let s = t * c;
             // A ← Jᵀ A J with the rotation in the (p, q) plane.
-            for k in 0..3 {
-                let (akp, akq) = (a[k][p], a[k][q]);
-                a[k][p] = c * akp - s * akq;
-                a[k][q] = s * akp + c * akq;
+            for row in &mut a {
+                let (akp, akq) = (row[p], row[q]);
+                row[p] = c * akp - s * akq;
+                row[q] = s * akp + c * akq;
             }
-            for k in 0..3 {
-                let (apk, aqk) = (a[p][k], a[q][k]);
-                a[p][k] = c * apk - s * aqk;
-                a[q][k] = s * apk + c * aqk;
-            }
+            let (row_p, row_q) = (a[p], a[q]);
+            a[p] = std::array::from_fn(|k| c * row_p[k] - s * row_q[k]);
+            a[q] = std::array::from_fn(|k| s * row_p[k] + c * row_q[k]);
             for row in &mut v {
                 let (vp, vq) = (row[p], row[q]);
                 row[p] = c * vp - s * vq;

@@ -31,12 +31,34 @@ impl Ctx<'_> {
 /// Parses `bytes` (GLB or JSON glTF) into a scene. `base` is the directory
 /// external buffers are resolved against; `None` allows only embedded data.
 pub(super) fn import(bytes: &[u8], file: &str, base: Option<&Path>) -> Result<Scene, SceneError> {
+    // Known panics of the `gltf` crate on malformed input are checked for up
+    // front; this is the last resort for unknown ones.
+    std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        import_checked(bytes, file, base)
+    }))
+    .unwrap_or_else(|_| {
+        Err(SceneError::Gltf {
+            file: file.to_string(),
+            detail: PARSER_PANIC.to_string(),
+        })
+    })
+}
+
+/// Detail of the error returned when the `gltf` crate panicked.
+const PARSER_PANIC: &str = "malformed glTF: the glTF reader failed on this file";
+
+fn import_checked(bytes: &[u8], file: &str, base: Option<&Path>) -> Result<Scene, SceneError> {
     let gltf_err = |detail: String| SceneError::Gltf {
         file: file.to_string(),
         detail,
     };
-    let gltf::Gltf { document, mut blob } = gltf::Gltf::from_slice(bytes)
-        .map_err(|e| gltf_err(format!("not a valid glTF/GLB file: {e}")))?;
+    let invalid = |e: gltf::Error| gltf_err(format!("not a valid glTF/GLB file: {e}"));
+    let gltf::Gltf { document, mut blob } =
+        gltf::Gltf::from_slice_without_validation(bytes).map_err(invalid)?;
+    // gltf-json's validation indexes POSITION accessors unchecked (panics on
+    // a dangling index), so check that first, then validate.
+    check_position_indices(document.as_json()).map_err(gltf_err)?;
+    let document = gltf::Document::from_json(document.into_json()).map_err(invalid)?;
     let buffers = load_buffers(&document, base, &mut blob).map_err(gltf_err)?;
     let ctx = Ctx {
         file,
@@ -63,6 +85,26 @@ pub(super) fn import(bytes: &[u8], file: &str, base: Option<&Path>) -> Result<Sc
         });
     }
     Scene::new(supports).map_err(|e| ctx.err(e.to_string()))
+}
+
+/// Every primitive's POSITION attribute must name an existing accessor.
+fn check_position_indices(root: &gltf::json::Root) -> Result<(), String> {
+    for (m, mesh) in root.meshes.iter().enumerate() {
+        for (p, prim) in mesh.primitives.iter().enumerate() {
+            let position = gltf::json::validation::Checked::Valid(gltf::Semantic::Positions);
+            if let Some(index) = prim.attributes.get(&position)
+                && index.value() >= root.accessors.len()
+            {
+                return Err(format!(
+                    "not a valid glTF/GLB file: mesh {m} primitive {p}: POSITION accessor {} \
+                     does not exist ({} accessors)",
+                    index.value(),
+                    root.accessors.len()
+                ));
+            }
+        }
+    }
+    Ok(())
 }
 
 /// Loads every buffer (GLB blob, `data:` URI, or a file relative to `base`),
@@ -117,12 +159,13 @@ fn percent_decodes_to_utf8(s: &str) -> bool {
     let mut i = 0;
     while i < bytes.len() {
         let hex = |b: u8| (b as char).to_digit(16);
-        if bytes[i] == b'%' && i + 2 < bytes.len() {
-            if let (Some(h), Some(l)) = (hex(bytes[i + 1]), hex(bytes[i + 2])) {
-                out.push((h * 16 + l) as u8);
-                i += 3;
-                continue;
-            }
+        if bytes[i] == b'%'
+            && i + 2 < bytes.len()
+            && let (Some(h), Some(l)) = (hex(bytes[i + 1]), hex(bytes[i + 2]))
+        {
+            out.push((h * 16 + l) as u8);
+            i += 3;
+            continue;
         }
         out.push(bytes[i]);
         i += 1;
@@ -431,10 +474,10 @@ fn read_triangles(
         let Some(pos_accessor) = primitive.get(&gltf::Semantic::Positions) else {
             continue;
         };
-        if pos_accessor.sparse().is_some() {
-            return Err(prim_err(
-                "sparse POSITION accessors are not supported".into(),
-            ));
+        check_accessor(&pos_accessor, ctx.buffers, AccessorUse::Positions)
+            .map_err(|d| prim_err(format!("POSITION accessor {}: {d}", pos_accessor.index())))?;
+        if pos_accessor.count() == 0 {
+            continue;
         }
         let reader = primitive.reader(|b| ctx.buffers.get(b.index()).map(|d| &d.0[..]));
         let Some(read) = reader.read_positions() else {
@@ -454,8 +497,10 @@ fn read_triangles(
         let count = positions.len() as u32 - first;
         let indices: Vec<u32> = match primitive.indices() {
             Some(acc) => {
-                if acc.sparse().is_some() {
-                    return Err(prim_err("sparse index accessors are not supported".into()));
+                check_accessor(&acc, ctx.buffers, AccessorUse::Indices)
+                    .map_err(|d| prim_err(format!("index accessor {}: {d}", acc.index())))?;
+                if acc.count() == 0 {
+                    continue;
                 }
                 let Some(read) = reader.read_indices() else {
                     return Err(prim_err("index data lies outside its buffer".into()));
@@ -476,4 +521,82 @@ fn read_triangles(
         );
     }
     Ok((positions, triangles))
+}
+
+/// What an accessor is read as.
+#[derive(Clone, Copy, PartialEq)]
+enum AccessorUse {
+    Positions,
+    Indices,
+}
+
+/// Checks what the `gltf` reader assumes but does not verify (it panics or
+/// overflows otherwise): a dense accessor of the right type whose elements lie
+/// inside its view, and a view inside its loaded buffer. Count 0 is fine.
+fn check_accessor(
+    acc: &gltf::Accessor,
+    buffers: &[gltf::buffer::Data],
+    usage: AccessorUse,
+) -> Result<(), String> {
+    use gltf::accessor::{DataType, Dimensions};
+    if acc.sparse().is_some() {
+        return Err("sparse accessors are not supported".into());
+    }
+    let type_ok = match usage {
+        AccessorUse::Positions => {
+            acc.data_type() == DataType::F32 && acc.dimensions() == Dimensions::Vec3
+        }
+        AccessorUse::Indices => {
+            matches!(
+                acc.data_type(),
+                DataType::U8 | DataType::U16 | DataType::U32
+            ) && acc.dimensions() == Dimensions::Scalar
+        }
+    };
+    if !type_ok {
+        return Err(format!(
+            "unexpected type {:?} {:?}",
+            acc.data_type(),
+            acc.dimensions()
+        ));
+    }
+    if acc.count() == 0 {
+        return Ok(());
+    }
+    let Some(view) = acc.view() else {
+        return Err("has no buffer view".into());
+    };
+    let size = acc.size();
+    let stride = view.stride().unwrap_or(size);
+    if stride < size {
+        return Err(format!(
+            "byte stride {stride} is smaller than an element ({size} bytes)"
+        ));
+    }
+    let end = stride
+        .checked_mul(acc.count() - 1)
+        .and_then(|n| n.checked_add(size))
+        .and_then(|n| n.checked_add(acc.offset()));
+    if end.is_none_or(|end| end > view.length()) {
+        return Err(format!(
+            "{} elements at offset {} do not fit its buffer view ({} bytes)",
+            acc.count(),
+            acc.offset(),
+            view.length()
+        ));
+    }
+    let buffer_len = buffers.get(view.buffer().index()).map_or(0, |d| d.len());
+    if view
+        .offset()
+        .checked_add(view.length())
+        .is_none_or(|end| end > buffer_len)
+    {
+        return Err(format!(
+            "buffer view {} ({} bytes at offset {}) lies outside its buffer ({buffer_len} bytes)",
+            view.index(),
+            view.length(),
+            view.offset()
+        ));
+    }
+    Ok(())
 }
