@@ -1,1 +1,36 @@
-//! Sloth rig: skeleton, FK, CCD IK.
+//! Sloth rig: skeleton, limb chains, forward kinematics and CCD inverse kinematics with
+//! anatomical joint limits. No ECS, no allocation in the solver.
+//!
+//! Conventions: metres, radians, right-handed, +Y up, glTF axes (model faces +Z, its
+//! left is +X). See the crate README for the joint-limit mapping and solver choices.
+//!
+//! Typical per-frame use (one limb):
+//! ```
+//! use slothsim_rig::{ccd, CcdParams, ChainPose, Limb, Rig, RootTransform};
+//! use glam::{Quat, Vec3};
+//! let rig = Rig::sloth();
+//! let chain = rig.chain(Limb::LF);
+//! let root = RootTransform::new(Vec3::new(0.0, 1.0, 0.0), Quat::IDENTITY);
+//! let mut pose = ChainPose::NEUTRAL; // keep per limb, warm-starts the next frame
+//! let grip = chain.fk(root, &ChainPose::NEUTRAL)[4] + Vec3::new(0.0, 0.01, 0.02);
+//! let result = ccd::solve(chain, root, grip, &mut pose, &CcdParams::default());
+//! assert!(result.reached);
+//! ```
+
+pub mod ccd;
+pub mod chain;
+pub mod error;
+pub mod fabrik;
+pub mod limb;
+pub mod limits;
+pub mod rig;
+pub mod skeleton;
+pub mod sloth;
+
+pub use ccd::{CcdOrder, CcdParams, CcdResult, CcdStatus, solve};
+pub use chain::{CHAIN_JOINTS, ChainPose, LimbChain, RootTransform};
+pub use error::RigError;
+pub use limb::Limb;
+pub use limits::{JointLimit, LimitProblem};
+pub use rig::{LimbJoints, LimbNames, Rig, RigMap};
+pub use skeleton::{RestTransform, Skeleton};

@@ -1,0 +1,316 @@
+//! Anatomical joint limits.
+//!
+//! A limit constrains a joint's *rest-relative* local rotation `q` (the pose rotation
+//! applied after the joint's rest rotation, see [`crate::LimbChain`]). Angles are radians.
+//!
+//! * [`JointLimit::Hinge`]: one degree of freedom, rotation about `axis` by an angle in
+//!   `[min, max]` (elbow, knee, wrist, ankle). Any off-axis rotation is a violation.
+//! * [`JointLimit::Ball`]: swing–twist (girdle, shoulder, hip). `q = swing * twist`,
+//!   twist about `twist_axis` (the bone direction) in `[twist_min, twist_max]`, swing
+//!   (rotation about an axis perpendicular to the bone) at most `swing_max`.
+//! * [`JointLimit::Free`]: unconstrained.
+
+use glam::{Quat, Vec3A};
+use serde::{Deserialize, Serialize};
+
+/// Per-joint rotation limit in the joint's rest frame. Radians.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum JointLimit {
+    /// No limit.
+    Free,
+    /// 1-DOF hinge about a unit `axis`, angle in `[min, max]`.
+    Hinge {
+        /// Unit hinge axis in the joint's rest frame.
+        axis: Vec3A,
+        /// Smallest angle (radians).
+        min: f32,
+        /// Largest angle (radians).
+        max: f32,
+    },
+    /// Swing–twist ball joint.
+    Ball {
+        /// Unit twist axis (bone direction) in the joint's rest frame.
+        twist_axis: Vec3A,
+        /// Largest swing angle away from the rest direction (radians, in `[0, π]`).
+        swing_max: f32,
+        /// Smallest twist angle (radians).
+        twist_min: f32,
+        /// Largest twist angle (radians).
+        twist_max: f32,
+    },
+}
+
+/// Why a limit is malformed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LimitProblem {
+    /// `min > max` (or `twist_min > twist_max`).
+    MinGreaterThanMax,
+    /// An axis is not unit length (or is zero).
+    AxisNotUnit,
+    /// A value is NaN or infinite, or a range exceeds `[-π, π]` / swing exceeds `[0, π]`.
+    OutOfRange,
+}
+
+impl std::fmt::Display for LimitProblem {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            LimitProblem::MinGreaterThanMax => "min > max",
+            LimitProblem::AxisNotUnit => "axis is not a unit vector",
+            LimitProblem::OutOfRange => "value is not finite or outside [-pi, pi]",
+        })
+    }
+}
+
+const PI: f32 = std::f32::consts::PI;
+
+impl JointLimit {
+    /// Hinge with a symmetric range: the whole `amplitude` centred on the rest pose.
+    pub fn hinge_amplitude(axis: Vec3A, amplitude: f32) -> JointLimit {
+        JointLimit::Hinge {
+            axis,
+            min: -0.5 * amplitude,
+            max: 0.5 * amplitude,
+        }
+    }
+
+    /// Ball joint from an amplitude (see README "joint-limit mapping"): the bone sweeps a
+    /// cone of full aperture `amplitude` (swing ≤ amplitude/2) and twists by at most
+    /// ±amplitude/4.
+    pub fn ball_amplitude(twist_axis: Vec3A, amplitude: f32) -> JointLimit {
+        JointLimit::Ball {
+            twist_axis,
+            swing_max: 0.5 * amplitude,
+            twist_min: -0.25 * amplitude,
+            twist_max: 0.25 * amplitude,
+        }
+    }
+
+    /// Check the limit is well formed.
+    pub fn validate(&self) -> Result<(), LimitProblem> {
+        let range_ok = |a: f32, b: f32| -> Result<(), LimitProblem> {
+            if !a.is_finite() || !b.is_finite() || a < -PI || b > PI {
+                return Err(LimitProblem::OutOfRange);
+            }
+            if a > b {
+                return Err(LimitProblem::MinGreaterThanMax);
+            }
+            Ok(())
+        };
+        let unit_ok = |v: Vec3A| {
+            if v.is_finite() && (v.length_squared() - 1.0).abs() < 1e-3 {
+                Ok(())
+            } else {
+                Err(LimitProblem::AxisNotUnit)
+            }
+        };
+        match *self {
+            JointLimit::Free => Ok(()),
+            JointLimit::Hinge { axis, min, max } => {
+                range_ok(min, max)?;
+                unit_ok(axis)
+            }
+            JointLimit::Ball {
+                twist_axis,
+                swing_max,
+                twist_min,
+                twist_max,
+            } => {
+                range_ok(twist_min, twist_max)?;
+                if !(0.0..=PI).contains(&swing_max) {
+                    return Err(LimitProblem::OutOfRange);
+                }
+                unit_ok(twist_axis)
+            }
+        }
+    }
+
+    /// The closest rotation to `q` (in the swing–twist sense) that satisfies the limit.
+    /// Degenerate input (swing of exactly 180°) resolves to a zero twist.
+    #[inline]
+    pub fn clamp(&self, q: Quat) -> Quat {
+        match *self {
+            JointLimit::Free => q,
+            JointLimit::Hinge { axis, min, max } => {
+                let angle = twist_angle(q, axis).clamp(min, max);
+                quat_axis_angle(axis, angle)
+            }
+            JointLimit::Ball {
+                twist_axis,
+                swing_max,
+                twist_min,
+                twist_max,
+            } => clamp_ball(q, twist_axis, swing_max, twist_min, twist_max),
+        }
+    }
+
+    /// Map a point `u` of the unit cube `[0, 1]³` to a rotation inside the limit
+    /// (continuous in `u`; used to generate within-limits poses in tests and benches).
+    /// Hinge: angle = lerp(min, max, u.x). Ball: swing direction angle 2π·u.x, swing
+    /// angle swing_max·u.y, twist lerp(twist_min, twist_max, u.z). Free: as a unit ball
+    /// joint with swing ≤ π.
+    pub fn sample_unit(&self, u: [f32; 3]) -> Quat {
+        let lerp = |a: f32, b: f32, t: f32| a + (b - a) * t.clamp(0.0, 1.0);
+        match *self {
+            JointLimit::Free => JointLimit::Ball {
+                twist_axis: Vec3A::Y,
+                swing_max: PI,
+                twist_min: -PI,
+                twist_max: PI,
+            }
+            .sample_unit(u),
+            JointLimit::Hinge { axis, min, max } => quat_axis_angle(axis, lerp(min, max, u[0])),
+            JointLimit::Ball {
+                twist_axis,
+                swing_max,
+                twist_min,
+                twist_max,
+            } => {
+                let (b1, b2) = twist_axis.any_orthonormal_pair();
+                let (s, c) = (2.0 * PI * u[0]).sin_cos();
+                let swing_axis = b1 * c + b2 * s;
+                let swing = quat_axis_angle(swing_axis, lerp(0.0, swing_max, u[1]));
+                let twist = quat_axis_angle(twist_axis, lerp(twist_min, twist_max, u[2]));
+                swing * twist
+            }
+        }
+    }
+
+    /// How far (radians, ≥ 0) the rotation `q` lies outside the limit; 0 inside it.
+    /// For a hinge, any rotation off the hinge axis counts as violation too.
+    pub fn violation(&self, q: Quat) -> f32 {
+        match *self {
+            JointLimit::Free => 0.0,
+            JointLimit::Hinge { axis, min, max } => {
+                let (swing, twist) = swing_twist_angles(q, axis);
+                swing.max(min - twist).max(twist - max).max(0.0)
+            }
+            JointLimit::Ball {
+                twist_axis,
+                swing_max,
+                twist_min,
+                twist_max,
+            } => {
+                let (swing, twist) = swing_twist_angles(q, twist_axis);
+                (swing - swing_max)
+                    .max(twist_min - twist)
+                    .max(twist - twist_max)
+                    .max(0.0)
+            }
+        }
+    }
+}
+
+/// `q` with a non-negative scalar part (same rotation).
+#[inline]
+fn canonical(q: Quat) -> Quat {
+    if q.w < 0.0 { -q } else { q }
+}
+
+/// Signed twist angle of `q` about the unit `axis`, in `(-π, π]`.
+#[inline]
+pub(crate) fn twist_angle(q: Quat, axis: Vec3A) -> f32 {
+    let q = canonical(q);
+    let p = Vec3A::new(q.x, q.y, q.z).dot(axis);
+    2.0 * p.atan2(q.w)
+}
+
+#[inline]
+pub(crate) fn quat_axis_angle(axis: Vec3A, angle: f32) -> Quat {
+    let (s, c) = (0.5 * angle).sin_cos();
+    let v = axis * s;
+    Quat::from_xyzw(v.x, v.y, v.z, c)
+}
+
+/// (swing angle ≥ 0, twist angle) of `q` decomposed as `swing * twist` about `axis`.
+pub(crate) fn swing_twist_angles(q: Quat, axis: Vec3A) -> (f32, f32) {
+    let q = canonical(q);
+    let p = Vec3A::new(q.x, q.y, q.z).dot(axis);
+    let twist_len = (p * p + q.w * q.w).sqrt();
+    if twist_len < 1e-9 {
+        return (PI, 0.0);
+    }
+    let twist = 2.0 * p.atan2(q.w);
+    // swing = q * twist⁻¹ has scalar part |twist| = twist_len and vector part of length
+    // |v − axis·p| (the off-axis part of q); atan2 stays accurate near zero swing.
+    let v = Vec3A::new(q.x, q.y, q.z);
+    let swing = 2.0 * (v - axis * p).length().atan2(twist_len);
+    (swing, twist)
+}
+
+#[inline]
+fn clamp_ball(q: Quat, axis: Vec3A, swing_max: f32, twist_min: f32, twist_max: f32) -> Quat {
+    let q = canonical(q);
+    let v = Vec3A::new(q.x, q.y, q.z);
+    let p = v.dot(axis);
+    let twist_len_sq = p * p + q.w * q.w;
+    if twist_len_sq < 1e-18 {
+        // Pure 180° swing: the twist is undefined; keep a zero twist and the limited swing.
+        let swing_axis = v.normalize_or_zero();
+        return quat_axis_angle(swing_axis, swing_max);
+    }
+    let inv_len = twist_len_sq.sqrt().recip();
+    // twist = (axis * p, w) / len, swing = q * conj(twist)
+    let tv = axis * (p * inv_len);
+    let tw = q.w * inv_len;
+    let mut twist = Quat::from_xyzw(tv.x, tv.y, tv.z, tw);
+    let mut swing = q * twist.conjugate();
+    let mut changed = false;
+    // swing.w = len ≥ 0, swing angle = 2 acos(len)
+    let half_max = 0.5 * swing_max;
+    if swing.w < half_max.cos() {
+        let (s, c) = half_max.sin_cos();
+        let sv = Vec3A::new(swing.x, swing.y, swing.z).normalize_or_zero() * s;
+        swing = Quat::from_xyzw(sv.x, sv.y, sv.z, c);
+        changed = true;
+    }
+    let twist_angle = 2.0 * (p * inv_len).atan2(tw);
+    if twist_angle < twist_min || twist_angle > twist_max {
+        twist = quat_axis_angle(axis, twist_angle.clamp(twist_min, twist_max));
+        changed = true;
+    }
+    if changed { swing * twist } else { q }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn hinge_clamps_to_range_and_drops_off_axis() {
+        let lim = JointLimit::Hinge {
+            axis: Vec3A::X,
+            min: -0.5,
+            max: 0.3,
+        };
+        let q = Quat::from_rotation_x(1.0);
+        let c = lim.clamp(q);
+        assert!((twist_angle(c, Vec3A::X) - 0.3).abs() < 1e-5);
+        let off = Quat::from_rotation_y(0.2) * Quat::from_rotation_x(0.1);
+        assert!(lim.violation(off) > 0.19);
+        assert!(lim.violation(lim.clamp(off)) < 1e-5);
+    }
+
+    #[test]
+    fn ball_clamps_swing_and_twist() {
+        let lim = JointLimit::ball_amplitude(Vec3A::Y, 1.0);
+        let q = Quat::from_rotation_x(1.2) * Quat::from_rotation_y(0.9);
+        assert!(lim.violation(q) > 0.3);
+        let c = lim.clamp(q);
+        assert!(lim.violation(c) < 1e-5, "{}", lim.violation(c));
+        let (swing, twist) = swing_twist_angles(c, Vec3A::Y);
+        assert!((swing - 0.5).abs() < 1e-4 && (twist - 0.25).abs() < 1e-4);
+        let inside = Quat::from_rotation_x(0.2);
+        assert_eq!(lim.clamp(inside), inside);
+    }
+
+    #[test]
+    fn validate_rejects_min_greater_than_max() {
+        let lim = JointLimit::Hinge {
+            axis: Vec3A::X,
+            min: 0.5,
+            max: 0.3,
+        };
+        assert_eq!(lim.validate(), Err(LimitProblem::MinGreaterThanMax));
+    }
+}
