@@ -1,0 +1,3 @@
+//! Asset generators for slothsim (offline code: nothing here runs in the simulation).
+
+pub mod rig_asset;
