@@ -251,6 +251,9 @@ pub fn generate_forest(cfg: &ForestConfig) -> Result<Scene, SceneError> {
     Scene::new(supports)
 }
 
+/// Branches level out rather than grow below this height (metres).
+const MIN_BRANCH_HEIGHT: f32 = 1.0;
+
 /// Horizontal part of `v`, normalised (X if `v` is vertical).
 fn horizontal(v: Vec3) -> Vec3 {
     Vec3::new(v.x, 0.0, v.z).try_normalize().unwrap_or(Vec3::X)
@@ -283,7 +286,13 @@ fn grow_branch(
             pitch.sin(),
             yaw.sin() * pitch.cos(),
         );
-        let p = *nodes.last().expect("nodes start non-empty") + d * seg_len;
+        let mut p = *nodes.last().expect("nodes start non-empty") + d * seg_len;
+        if p.y < MIN_BRANCH_HEIGHT {
+            // Level out instead of growing into the ground.
+            pitch = pitch.max(0.0);
+            let d = Vec3::new(yaw.cos() * pitch.cos(), pitch.sin(), yaw.sin() * pitch.cos());
+            p = *nodes.last().expect("nodes start non-empty") + d * seg_len;
+        }
         nodes.push(p);
         radii.push(radius + (r_tip - radius) * i as f32 / segments as f32);
     }

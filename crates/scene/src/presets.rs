@@ -290,7 +290,7 @@ mod tests {
     fn every_preset_builds_with_default_and_extremes() {
         for kind in PresetKind::ALL {
             let p = Preset::new(kind, None).unwrap();
-            assert!(p.scene.supports().len() >= 1);
+            assert!(!p.scene.supports().is_empty());
             if let Some((_, _, [lo, hi], _)) = kind.parameter() {
                 Preset::new(kind, Some(lo)).unwrap();
                 Preset::new(kind, Some(hi)).unwrap();
