@@ -337,32 +337,33 @@ fn step_joint(
             None => false,
         };
     }
-    if reach_step && j == 2 {
-        if let JointLimit::Hinge { axis, min, max } = chain.limits[j] {
-            let inv_rot = frames.rot[j].inverse();
-            let eff_ls = inv_rot * (frames.pos[4] - joint_pos);
-            let ref_ls = inv_rot * (frames.pos[1] - joint_pos);
-            let want = (target - frames.pos[1]).length();
-            let (step, saturated) = reach_hinge_step(
-                pose.0[j],
-                axis,
-                min,
-                max,
-                eff_ls,
-                ref_ls,
-                want,
-                cap.max_angle,
-            );
-            frames.mid_saturated = saturated;
-            return match step {
-                Some(q) => {
-                    pose.0[j] = q;
-                    frames.update_from(chain, pose, j);
-                    true
-                }
-                None => false,
-            };
-        }
+    if reach_step
+        && j == 2
+        && let JointLimit::Hinge { axis, min, max } = chain.limits[j]
+    {
+        let inv_rot = frames.rot[j].inverse();
+        let eff_ls = inv_rot * (frames.pos[4] - joint_pos);
+        let ref_ls = inv_rot * (frames.pos[1] - joint_pos);
+        let want = (target - frames.pos[1]).length();
+        let (step, saturated) = reach_hinge_step(
+            pose.0[j],
+            axis,
+            min,
+            max,
+            eff_ls,
+            ref_ls,
+            want,
+            cap.max_angle,
+        );
+        frames.mid_saturated = saturated;
+        return match step {
+            Some(q) => {
+                pose.0[j] = q;
+                frames.update_from(chain, pose, j);
+                true
+            }
+            None => false,
+        };
     }
     let inv_rot = frames.rot[j].inverse();
     // Effector and target directions in joint j's own (posed) frame.

@@ -3,12 +3,12 @@
 //! A limit constrains a joint's *rest-relative* local rotation `q` (the pose rotation
 //! applied after the joint's rest rotation, see [`crate::LimbChain`]). Angles are radians.
 //!
-//! * [`JointLimit::Hinge`]: one degree of freedom, rotation about `axis` by an angle in
+//! * `JointLimit::Hinge`: one degree of freedom, rotation about `axis` by an angle in
 //!   `[min, max]` (elbow, knee, wrist, ankle). Any off-axis rotation is a violation.
-//! * [`JointLimit::Ball`]: swing–twist (girdle, shoulder, hip). `q = swing * twist`,
+//! * `JointLimit::Ball`: swing–twist (girdle, shoulder, hip). `q = swing * twist`,
 //!   twist about `twist_axis` (the bone direction) in `[twist_min, twist_max]`, swing
 //!   (rotation about an axis perpendicular to the bone) at most `swing_max`.
-//! * [`JointLimit::Free`]: unconstrained.
+//! * `JointLimit::Free`: unconstrained.
 
 use glam::{Quat, Vec3A};
 use serde::{Deserialize, Serialize};
