@@ -9,12 +9,12 @@
 
 use std::time::Duration;
 
-use glam::{Quat, Vec3};
+use glam::{Quat, UVec2, Vec3, Vec3A, Vec4};
 use obvhs::{
     Boundable, BvhBuildParams,
     aabb::Aabb,
-    bvh2::{Bvh2, builder::build_bvh2},
-    ray::{Ray, RayHit},
+    cwbvh::{CwBvh, builder::build_cwbvh, node::CwBvhNode},
+    ray::safe_inverse,
 };
 use rayon::prelude::*;
 use serde::Serialize;
@@ -105,9 +105,11 @@ impl Boundable for PrimBounds {
 /// A scene with its BVH, ready to trace. Built once; immutable.
 pub struct TraceScene {
     scene: Scene,
-    bvh: Bvh2,
+    /// Compressed 8-wide BVH (obvhs `CwBvh`); traversed by [`SceneQuery`]
+    /// with its own node test, which grows child boxes by the sweep radius.
+    bvh: CwBvh,
     /// Primitives in BVH order (`bvh.primitive_indices` applied), so leaf
-    /// ranges index this array directly.
+    /// primitive ids index this array directly.
     prims: Vec<Primitive>,
     stats: BvhStats,
 }
@@ -146,25 +148,21 @@ impl TraceScene {
             .collect();
         let mut build_time = Duration::ZERO;
         let bvh = if prims.is_empty() {
-            Bvh2::default()
+            CwBvh::default()
         } else {
-            build_bvh2(&bounds, BvhBuildParams::medium_build(), &mut build_time)
+            build_cwbvh(&bounds, BvhBuildParams::medium_build(), &mut build_time)
         };
         let prims: Vec<Primitive> = bvh
             .primitive_indices
             .iter()
             .map(|&i| prims[i as usize])
             .collect();
-        let leaves = bvh.nodes.iter().filter(|n| n.is_leaf()).count();
+        let (leaves, depth) = cwbvh_shape(&bvh);
         let stats = BvhStats {
             primitives: prims.len(),
             nodes: bvh.nodes.len(),
             leaves,
-            depth: if bvh.nodes.is_empty() {
-                0
-            } else {
-                bvh.depth(0)
-            },
+            depth,
             build_ms: start.elapsed().as_secs_f64() * 1e3,
         };
         TraceScene {
@@ -191,6 +189,35 @@ impl TraceScene {
     }
 }
 
+/// Leaf count and depth (in wide nodes, leaves included) of a `CwBvh`.
+fn cwbvh_shape(bvh: &CwBvh) -> (usize, usize) {
+    fn walk(bvh: &CwBvh, ni: u32, depth: usize, leaves: &mut usize, max_depth: &mut usize) {
+        let node = &bvh.nodes[ni as usize];
+        for child in 0..8 {
+            if node.is_child_empty(child) {
+                continue;
+            }
+            if node.is_leaf(child) {
+                *leaves += 1;
+                *max_depth = (*max_depth).max(depth + 1);
+            } else {
+                walk(
+                    bvh,
+                    node.child_node_index(child),
+                    depth + 1,
+                    leaves,
+                    max_depth,
+                );
+            }
+        }
+    }
+    let (mut leaves, mut depth) = (0, 0);
+    if !bvh.nodes.is_empty() {
+        walk(bvh, 0, 1, &mut leaves, &mut depth);
+    }
+    (leaves, depth)
+}
+
 /// Validated ray: unit direction, finite origin, `tmax ≥ 0`.
 fn validate_line(line: &LineTrace) -> Result<(Vec3, Vec3, f32), TraceError> {
     if !line.origin.is_finite() {
@@ -204,6 +231,112 @@ fn validate_line(line: &LineTrace) -> Result<(Vec3, Vec3, f32), TraceError> {
         return Err(TraceError::InvalidParameter("max_dist"));
     }
     Ok((line.origin, dir, line.max_dist))
+}
+
+/// Per-ray constants of the wide-node slab test.
+struct NodeRay {
+    origin: Vec3A,
+    inv_dir: Vec3A,
+    /// `radius · |inv_dir|`: how far the sweep radius moves each slab plane
+    /// along the ray (child boxes are grown by the radius).
+    grow: Vec3A,
+    neg: [bool; 3],
+    oct_inv4: u32,
+}
+
+impl NodeRay {
+    #[inline(always)]
+    fn new(o: Vec3, d: Vec3, radius: f32) -> Self {
+        let inv_dir = Vec3A::new(safe_inverse(d.x), safe_inverse(d.y), safe_inverse(d.z));
+        NodeRay {
+            origin: o.into(),
+            inv_dir,
+            grow: inv_dir.abs() * radius,
+            neg: [d.x < 0.0, d.y < 0.0, d.z < 0.0],
+            // Ray octant, as obvhs' traversal expects it (`ray_get_octant_inv4`).
+            oct_inv4: (if d.x < 0.0 { 0 } else { 0x0404_0404 })
+                | (if d.y < 0.0 { 0 } else { 0x0202_0202 })
+                | (if d.z < 0.0 { 0 } else { 0x0101_0101 }),
+        }
+    }
+
+    /// Hit mask (obvhs `CwBvhNode::intersect_ray` layout) of the node's
+    /// children whose boxes, grown by the sweep radius, the segment
+    /// `[0, tmax]` crosses.
+    #[inline(always)]
+    fn intersect(&self, node: &CwBvhNode, tmax: f32) -> u32 {
+        let adj = node.compute_extent() * self.inv_dir;
+        let base = (Vec3A::from(node.p) - self.origin) * self.inv_dir;
+        let near = base - self.grow;
+        let far = base + self.grow;
+        let (nx, fx) = if self.neg[0] {
+            (&node.child_max_x, &node.child_min_x)
+        } else {
+            (&node.child_min_x, &node.child_max_x)
+        };
+        let (ny, fy) = if self.neg[1] {
+            (&node.child_max_y, &node.child_min_y)
+        } else {
+            (&node.child_min_y, &node.child_max_y)
+        };
+        let (nz, fz) = if self.neg[2] {
+            (&node.child_max_z, &node.child_min_z)
+        } else {
+            (&node.child_min_z, &node.child_max_z)
+        };
+        let (child_bits8, bit_index8) = node.get_child_and_index_bits(self.oct_inv4);
+        let mut hit_mask = 0u32;
+        for i in 0..2 {
+            #[inline(always)]
+            fn q(v: &[u8; 8], i: usize) -> Vec4 {
+                Vec4::new(
+                    v[i * 4] as f32,
+                    v[i * 4 + 1] as f32,
+                    v[i * 4 + 2] as f32,
+                    v[i * 4 + 3] as f32,
+                )
+            }
+            let t_near = (q(nx, i) * adj.x + Vec4::splat(near.x))
+                .max(q(ny, i) * adj.y + Vec4::splat(near.y))
+                .max(q(nz, i) * adj.z + Vec4::splat(near.z))
+                .max(Vec4::ZERO);
+            let t_far = (q(fx, i) * adj.x + Vec4::splat(far.x))
+                .min(q(fy, i) * adj.y + Vec4::splat(far.y))
+                .min(q(fz, i) * adj.z + Vec4::splat(far.z))
+                .min(Vec4::splat(tmax));
+            let mask = t_near.cmple(t_far).bitmask();
+            for j in 0..4 {
+                if mask & (1 << j) != 0 {
+                    let offset = (i * 4 + j) * 8;
+                    let child_bits = ((child_bits8 >> offset) as u32) & 0xff;
+                    let bit_index = ((bit_index8 >> offset) as u32) & 0xff;
+                    hit_mask |= child_bits << bit_index;
+                }
+            }
+        }
+        hit_mask
+    }
+}
+
+/// Hit mask (obvhs `CwBvhNode::intersect_ray` layout) of the node's children
+/// whose boxes overlap the box `[lo, hi]` (world space).
+#[inline(always)]
+fn aabb_hits(node: &CwBvhNode, lo: Vec3A, hi: Vec3A, oct_inv4: u32) -> u32 {
+    let e = node.compute_extent();
+    let p = Vec3A::from(node.p);
+    let (child_bits8, bit_index8) = node.get_child_and_index_bits(oct_inv4);
+    let mut hit_mask = 0u32;
+    for child in 0..8 {
+        let local = node.local_child_aabb(child);
+        let (cmin, cmax) = (p + local.min * e, p + local.max * e);
+        if cmin.cmple(hi).all() && cmax.cmpge(lo).all() {
+            let offset = child * 8;
+            let child_bits = ((child_bits8 >> offset) as u32) & 0xff;
+            let bit_index = ((bit_index8 >> offset) as u32) & 0xff;
+            hit_mask |= child_bits << bit_index;
+        }
+    }
+    hit_mask
 }
 
 /// Borrowed view for tracing a [`TraceScene`]. Cheap to copy; `Send + Sync`.
@@ -246,96 +379,43 @@ impl<'a> SceneQuery<'a> {
         if prims.is_empty() {
             return Ok(None);
         }
-        // The BVH bounds the primitives without any sphere radius, so a sweep
-        // walks it with node boxes grown by the radius (`sphere_traverse`).
-        let ray = Ray::new(o.into(), d.into(), 0.0, tmax);
-        let mut hit = RayHit::none();
-        let mut best_n = Vec3::ZERO;
-        let found = if radius == 0.0 {
-            self.traces.bvh.ray_traverse(ray, &mut hit, |ray, id| {
-                match prims[id].sweep(o, d, 0.0) {
-                    Some((t, n)) if t < ray.tmax => {
-                        best_n = n;
-                        t
-                    }
-                    _ => f32::INFINITY,
-                }
-            })
-        } else {
-            self.sphere_traverse(o, d, tmax, radius, &mut hit, &mut best_n)
-        };
-        if !found {
+        let Some((t, n, pi)) = self.closest(o, d, tmax, radius) else {
             return Ok(None);
-        }
-        let p = &prims[hit.primitive_id as usize];
-        let support = p.support();
-        let t = hit.t;
+        };
+        let support = prims[pi].support();
         Ok(Some(TraceHit {
-            point: o + d * t - best_n * radius,
-            normal: best_n,
+            point: o + d * t - n * radius,
+            normal: n,
             support,
             kind: self.traces.scene.support(support).kind,
             distance: t,
         }))
     }
 
-    /// Sphere sweep: walks the BVH with node boxes grown by `radius`
-    /// (slab test against the inflated box), then the inflated primitives.
-    fn sphere_traverse(
-        &self,
-        o: Vec3,
-        d: Vec3,
-        tmax: f32,
-        radius: f32,
-        hit: &mut RayHit,
-        best_n: &mut Vec3,
-    ) -> bool {
+    /// Closest hit `(t, normal, primitive)` with `t < tmax` of a sphere of
+    /// `radius` (0: a line) moving from `o` along unit `d`. Walks the wide
+    /// BVH with child boxes grown by the radius, near children first.
+    #[inline]
+    fn closest(&self, o: Vec3, d: Vec3, tmax: f32, radius: f32) -> Option<(f32, Vec3, usize)> {
         let bvh = &self.traces.bvh;
         let prims = &self.traces.prims;
-        let inv_d = Vec3::new(
-            obvhs::ray::safe_inverse(d.x),
-            obvhs::ray::safe_inverse(d.y),
-            obvhs::ray::safe_inverse(d.z),
-        );
-        let grow = Vec3::splat(radius);
+        let nr = NodeRay::new(o, d, radius);
+        let mut state = bvh.new_traversal(d.into());
+        state.oct_inv4 = nr.oct_inv4;
         let mut t_best = tmax;
-        let mut found = false;
-        let slab = |min: Vec3, max: Vec3, t_best: f32| -> bool {
-            let t1 = (min - grow - o) * inv_d;
-            let t2 = (max + grow - o) * inv_d;
-            let tmin = t1.min(t2).max_element().max(0.0);
-            let tmax = t1.max(t2).min_element().min(t_best);
-            tmin <= tmax
-        };
-        let mut stack: Vec<u32> = Vec::with_capacity(64);
-        let root = &bvh.nodes[0];
-        if !slab(root.aabb().min.into(), root.aabb().max.into(), t_best) {
-            return false;
-        }
-        stack.push(0);
-        while let Some(ni) = stack.pop() {
-            let node = &bvh.nodes[ni as usize];
-            if !slab(node.aabb().min.into(), node.aabb().max.into(), t_best) {
-                continue;
+        let mut best: Option<(Vec3, usize)> = None;
+        let mut node;
+        obvhs::traverse!(bvh, node, state, nr.intersect(node, t_best), {
+            let pi = state.primitive_id as usize;
+            if let Some((t, n)) = prims[pi].sweep(o, d, radius)
+                && (t < t_best || (t == t_best && best.is_some_and(|(_, bi)| pi < bi)))
+            {
+                // Exact ties go to the lowest index, like the brute-force scan.
+                t_best = t;
+                best = Some((n, pi));
             }
-            if node.is_leaf() {
-                for pi in node.first_index..node.first_index + node.prim_count {
-                    if let Some((t, n)) = prims[pi as usize].sweep(o, d, radius)
-                        && t < t_best
-                    {
-                        t_best = t;
-                        *best_n = n;
-                        hit.t = t;
-                        hit.primitive_id = pi;
-                        found = true;
-                    }
-                }
-            } else {
-                stack.push(node.first_index);
-                stack.push(node.first_index + 1);
-            }
-        }
-        found
+        });
+        best.map(|(n, pi)| (t_best, n, pi))
     }
 
     /// Ids of supports whose solid overlaps the oriented box, sorted and
@@ -347,15 +427,15 @@ impl<'a> SceneQuery<'a> {
         if prims.is_empty() {
             return Ok(());
         }
-        self.traces.bvh.aabb_traverse(world_aabb, |bvh, ni| {
-            let node = &bvh.nodes[ni as usize];
-            for pi in node.first_index..node.first_index + node.prim_count {
-                let p = &prims[pi as usize];
-                if prim_overlaps_local_box(p, &to_local, bx.half_extents) {
-                    out.push(p.support());
-                }
+        let bvh = &self.traces.bvh;
+        let (lo, hi) = (Vec3A::from(world_aabb.min), Vec3A::from(world_aabb.max));
+        let mut state = bvh.new_traversal(Vec3A::X);
+        let mut node;
+        obvhs::traverse!(bvh, node, state, aabb_hits(node, lo, hi, state.oct_inv4), {
+            let p = &prims[state.primitive_id as usize];
+            if prim_overlaps_local_box(p, &to_local, bx.half_extents) {
+                out.push(p.support());
             }
-            true
         });
         out.sort_unstable();
         out.dedup();
