@@ -8,3 +8,7 @@
 pub mod observe;
 
 pub use observe::{LimbObservation, SlothObservation};
+pub mod judge;
+pub mod stats;
+pub use judge::{Judge, JudgeReport, JudgeWorst, MeasureAt, ToleranceError, Tolerances, Verdict};
+pub use stats::{FootfallSequence, GaitReport, GaitStats, LimbGaitReport, PerLimb};

@@ -1,0 +1,1117 @@
+//! The automatic judge: measured pass/fail criteria for one run of one sloth
+//! (SPEC "Test scenarios": grips held on the surface, reach and joint limits
+//! respected, no body/support penetration, head-up on trunks, goal reached in
+//! time).
+//!
+//! [`Judge`] is a streaming accumulator: feed it one [`SlothObservation`] per
+//! frame with [`Judge::observe`] (constant memory, no allocation), then read a
+//! [`JudgeReport`] with [`Judge::finish`] and decide with
+//! [`JudgeReport::verdict`].
+//!
+//! Units: metres, seconds, radians. Times are the simulation clock
+//! (`SlothObservation::time_s`, which starts at 0 when the run starts).
+//!
+//! Degenerate cases:
+//! - A frame with `has_nan` set, or with any non-finite value (checked here
+//!   too, see [`observation_is_finite`]), or with a limb whose `limb_length`
+//!   is not > 0, counts once in `nan_count`. If its values are not all finite
+//!   it takes no part in the other measures, and the grip-slip measure
+//!   restarts after it (no slip is measured across it).
+//! - Grip slip covers three ways a planted grip can fail to hold: the IK
+//!   misses it, it jumps between frames, or it slides slowly over the stance
+//!   (distance from where the stance began).
+//! - An empty stream gives a report with 0 frames; its verdict fails with
+//!   "frames 0" and "goal not reached".
+
+use std::fmt::Write as _;
+
+use glam::{Quat, Vec3};
+use serde::{Deserialize, Serialize};
+use slothsim_rig::Limb;
+
+use crate::observe::{LimbObservation, SlothObservation};
+
+/// A joint-limit violation counts when `limit_violation` exceeds this many
+/// radians (about 0.006°): above the float noise of a clamped CCD pose, far
+/// below anything visible.
+pub const LIMIT_VIOLATION_EPSILON_RAD: f32 = 1e-4;
+
+/// Pass/fail limits for a [`JudgeReport`]. `Default` is the issue's limits,
+/// the loosest allowed ([`Tolerances::validate`] rejects anything looser).
+///
+/// Deserialises with defaults for missing fields (e.g. from a TOML table).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Tolerances {
+    /// The goal counts as reached when `goal_distance_m` ≤ this, metres.
+    /// Default 0.3 m, as `slothsim_scene::Goal::tolerance` of the presets;
+    /// set it from the scenario's `Goal::tolerance`.
+    pub goal_tolerance_m: f32,
+    /// Largest slip of a planted grip, metres (issue: ≤ 5 mm).
+    pub max_grip_slip_m: f32,
+    /// Largest effector↔support-surface gap of a planted limb, metres (issue: ≤ 1 cm).
+    pub max_surface_gap_m: f32,
+    /// Largest |effector − root| / limb length (issue: ≤ 1.0).
+    pub max_reach_ratio: f32,
+    /// Largest number of (frame, limb) joint-limit violations (issue: 0).
+    pub max_joint_limit_violations: u64,
+    /// A limb's `limit_violation` above this is a violation, radians
+    /// (default [`LIMIT_VIOLATION_EPSILON_RAD`]).
+    pub limit_violation_epsilon_rad: f32,
+    /// Fewest limbs in contact in any frame (issue: ≥ 2).
+    pub min_limbs_in_contact: u32,
+    /// Deepest body/support penetration, metres (issue: ≤ 1 cm).
+    pub max_penetration_m: f32,
+    /// Most frames with the head below the hips while on a trunk (0: head-up only).
+    pub max_head_below_hips_on_trunk_frames: u64,
+    /// Most frames with a NaN/inf value (issue: 0).
+    pub max_nan_count: u64,
+}
+
+impl Default for Tolerances {
+    fn default() -> Self {
+        Tolerances {
+            goal_tolerance_m: 0.3,
+            max_grip_slip_m: 0.005,
+            max_surface_gap_m: 0.01,
+            max_reach_ratio: 1.0,
+            max_joint_limit_violations: 0,
+            limit_violation_epsilon_rad: LIMIT_VIOLATION_EPSILON_RAD,
+            min_limbs_in_contact: 2,
+            max_penetration_m: 0.01,
+            max_head_below_hips_on_trunk_frames: 0,
+            max_nan_count: 0,
+        }
+    }
+}
+
+/// A tolerance looser than the issue allows, or not a usable number.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[error("tolerance `{field}` = {value} is not allowed: {allowed}")]
+pub struct ToleranceError {
+    /// The field name (as in the serialised form).
+    pub field: &'static str,
+    /// The offending value.
+    pub value: f64,
+    /// What is allowed.
+    pub allowed: String,
+}
+
+impl Tolerances {
+    /// The issue's limits (= `Default`), the loosest allowed.
+    pub fn issue_limits() -> Self {
+        Tolerances::default()
+    }
+
+    /// Checks every limit is a finite number no looser than the issue's
+    /// ([`Tolerances::issue_limits`]); `goal_tolerance_m` must be > 0 and
+    /// `limit_violation_epsilon_rad` in 0..=1e-4. Tighter limits are fine.
+    pub fn validate(&self) -> Result<(), ToleranceError> {
+        let issue = Tolerances::issue_limits();
+        let upper = |field: &'static str, value: f32, max: f32| {
+            if value.is_finite() && value >= 0.0 && value <= max {
+                Ok(())
+            } else {
+                Err(ToleranceError {
+                    field,
+                    value: value as f64,
+                    allowed: format!("0..={max}"),
+                })
+            }
+        };
+        upper(
+            "max_grip_slip_m",
+            self.max_grip_slip_m,
+            issue.max_grip_slip_m,
+        )?;
+        upper(
+            "max_surface_gap_m",
+            self.max_surface_gap_m,
+            issue.max_surface_gap_m,
+        )?;
+        upper(
+            "max_reach_ratio",
+            self.max_reach_ratio,
+            issue.max_reach_ratio,
+        )?;
+        upper(
+            "limit_violation_epsilon_rad",
+            self.limit_violation_epsilon_rad,
+            issue.limit_violation_epsilon_rad,
+        )?;
+        upper(
+            "max_penetration_m",
+            self.max_penetration_m,
+            issue.max_penetration_m,
+        )?;
+        let count = |field: &'static str, value: u64, max: u64| {
+            if value <= max {
+                Ok(())
+            } else {
+                Err(ToleranceError {
+                    field,
+                    value: value as f64,
+                    allowed: format!("0..={max}"),
+                })
+            }
+        };
+        count(
+            "max_joint_limit_violations",
+            self.max_joint_limit_violations,
+            issue.max_joint_limit_violations,
+        )?;
+        count(
+            "max_head_below_hips_on_trunk_frames",
+            self.max_head_below_hips_on_trunk_frames,
+            issue.max_head_below_hips_on_trunk_frames,
+        )?;
+        count("max_nan_count", self.max_nan_count, issue.max_nan_count)?;
+        if !(issue.min_limbs_in_contact..=4).contains(&self.min_limbs_in_contact) {
+            return Err(ToleranceError {
+                field: "min_limbs_in_contact",
+                value: self.min_limbs_in_contact as f64,
+                allowed: format!("{}..=4", issue.min_limbs_in_contact),
+            });
+        }
+        if !(self.goal_tolerance_m.is_finite() && self.goal_tolerance_m > 0.0) {
+            return Err(ToleranceError {
+                field: "goal_tolerance_m",
+                value: self.goal_tolerance_m as f64,
+                allowed: "a finite distance > 0".to_string(),
+            });
+        }
+        Ok(())
+    }
+}
+
+/// True when every float of the observation is finite and every
+/// `limb_length` is > 0. (`has_nan` is not looked at.)
+pub fn observation_is_finite(obs: &SlothObservation) -> bool {
+    let v = |v: Vec3| v.is_finite();
+    let q = |q: Quat| q.is_finite();
+    let limb_ok = |l: &LimbObservation| {
+        v(l.grip_ws)
+            && v(l.effector_ws)
+            && v(l.root_ws)
+            && l.limb_length.is_finite()
+            && l.limb_length > 0.0
+            && l.surface_gap.is_finite()
+            && l.limit_violation.is_finite()
+    };
+    obs.time_s.is_finite()
+        && v(obs.body_pos)
+        && q(obs.body_rot)
+        && v(obs.head_ws)
+        && v(obs.hips_ws)
+        && obs.penetration_m.is_finite()
+        && obs.goal_distance_m.is_finite()
+        && obs.limbs.iter().all(limb_ok)
+}
+
+/// Where (frame time) and on which limb a worst value was seen.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct At {
+    time_s: f32,
+    limb: Option<Limb>,
+}
+
+impl At {
+    fn report(self) -> MeasureAt {
+        MeasureAt {
+            time_s: self.time_s,
+            limb: self.limb.map(|l| l.name().to_string()),
+        }
+    }
+}
+
+/// Streaming judge of one sloth's run. See the module docs.
+#[derive(Clone, Debug)]
+pub struct Judge {
+    tolerances: Tolerances,
+    time_limit_s: f32,
+
+    frames: u64,
+    last_time_s: f32,
+    goal_time_s: Option<f32>,
+    min_goal_distance_m: Option<f32>,
+
+    max_grip_slip_m: f32,
+    max_surface_gap_m: f32,
+    max_reach_ratio: f32,
+    joint_limit_violations: u64,
+    max_limit_violation_rad: f32,
+    min_limbs_in_contact: Option<u32>,
+    max_penetration_m: f32,
+    head_below_hips_on_trunk_frames: u64,
+    nan_count: u64,
+
+    worst: [Option<At>; WORST_COUNT],
+
+    /// The previous finite frame's limbs (for grip slip).
+    prev: Option<[HeldGrip; 4]>,
+}
+
+/// A limb's state kept from the previous frame for the grip-slip measure.
+#[derive(Clone, Copy, Debug, Default)]
+struct HeldGrip {
+    planted: bool,
+    grip_ws: Vec3,
+    /// Where the grip was when this stance was first seen.
+    anchor_ws: Vec3,
+}
+
+// Indices into `Judge::worst` (same order as `JudgeWorst`'s fields).
+const W_GRIP_SLIP: usize = 0;
+const W_SURFACE_GAP: usize = 1;
+const W_REACH: usize = 2;
+const W_LIMIT: usize = 3;
+const W_CONTACT: usize = 4;
+const W_PENETRATION: usize = 5;
+const W_HEAD: usize = 6;
+const W_NAN: usize = 7;
+const WORST_COUNT: usize = 8;
+
+impl Judge {
+    /// A judge for a run that must reach its goal within `time_limit_s`
+    /// (simulation clock; a non-finite limit never fails the time check).
+    pub fn new(tolerances: Tolerances, time_limit_s: f32) -> Self {
+        Judge {
+            tolerances,
+            time_limit_s,
+            frames: 0,
+            last_time_s: 0.0,
+            goal_time_s: None,
+            min_goal_distance_m: None,
+            max_grip_slip_m: 0.0,
+            max_surface_gap_m: 0.0,
+            max_reach_ratio: 0.0,
+            joint_limit_violations: 0,
+            max_limit_violation_rad: 0.0,
+            min_limbs_in_contact: None,
+            max_penetration_m: 0.0,
+            head_below_hips_on_trunk_frames: 0,
+            nan_count: 0,
+            worst: [None; WORST_COUNT],
+            prev: None,
+        }
+    }
+
+    /// The tolerances this judge was built with.
+    pub fn tolerances(&self) -> &Tolerances {
+        &self.tolerances
+    }
+
+    /// The goal time limit, seconds.
+    pub fn time_limit_s(&self) -> f32 {
+        self.time_limit_s
+    }
+
+    /// Takes one frame into account. Constant time, no allocation.
+    pub fn observe(&mut self, obs: &SlothObservation) {
+        self.frames += 1;
+        let finite = observation_is_finite(obs);
+        if obs.has_nan || !finite {
+            self.nan_count += 1;
+            if self.worst[W_NAN].is_none() {
+                self.worst[W_NAN] = Some(At {
+                    time_s: obs.time_s,
+                    limb: None,
+                });
+            }
+        }
+        if !finite {
+            // Nothing else can be trusted in this frame; restart grip tracking.
+            self.prev = None;
+            return;
+        }
+        let t = obs.time_s;
+        self.last_time_s = t;
+
+        self.measure_goal(obs);
+        self.measure_limbs(obs);
+        self.measure_body(obs);
+
+        let mut held = [HeldGrip::default(); 4];
+        for (i, (h, l)) in held.iter_mut().zip(&obs.limbs).enumerate() {
+            let anchor_ws = match &self.prev {
+                Some(prev) if prev[i].planted && l.planted => prev[i].anchor_ws,
+                _ => l.grip_ws,
+            };
+            *h = HeldGrip {
+                planted: l.planted,
+                grip_ws: l.grip_ws,
+                anchor_ws,
+            };
+        }
+        self.prev = Some(held);
+    }
+
+    fn measure_goal(&mut self, obs: &SlothObservation) {
+        let d = obs.goal_distance_m;
+        self.min_goal_distance_m = Some(self.min_goal_distance_m.map_or(d, |m| m.min(d)));
+        if self.goal_time_s.is_none() && d <= self.tolerances.goal_tolerance_m {
+            self.goal_time_s = Some(obs.time_s);
+        }
+    }
+
+    fn measure_limbs(&mut self, obs: &SlothObservation) {
+        let t = obs.time_s;
+        let eps = self.tolerances.limit_violation_epsilon_rad;
+        for limb in Limb::ALL {
+            let l = obs.limb(limb);
+            let at = Some(At {
+                time_s: t,
+                limb: Some(limb),
+            });
+
+            // Grip slip: only for a limb planted in this and the previous frame.
+            if let Some(prev) = &self.prev {
+                let held = prev[limb.index()];
+                if held.planted && l.planted {
+                    let ik_error = l.effector_ws.distance(l.grip_ws);
+                    let grip_moved = l.grip_ws.distance(held.grip_ws);
+                    let grip_slid = l.grip_ws.distance(held.anchor_ws);
+                    let slip = ik_error.max(grip_moved).max(grip_slid);
+                    if slip > self.max_grip_slip_m {
+                        self.max_grip_slip_m = slip;
+                        self.worst[W_GRIP_SLIP] = at;
+                    }
+                }
+            }
+
+            if l.planted {
+                let gap = l.surface_gap.abs();
+                if gap > self.max_surface_gap_m {
+                    self.max_surface_gap_m = gap;
+                    self.worst[W_SURFACE_GAP] = at;
+                }
+            }
+
+            let reach = l.effector_ws.distance(l.root_ws) / l.limb_length;
+            if reach > self.max_reach_ratio {
+                self.max_reach_ratio = reach;
+                self.worst[W_REACH] = at;
+            }
+
+            if l.limit_violation > eps {
+                self.joint_limit_violations += 1;
+            }
+            if l.limit_violation > self.max_limit_violation_rad {
+                self.max_limit_violation_rad = l.limit_violation;
+                self.worst[W_LIMIT] = at;
+            }
+        }
+    }
+
+    fn measure_body(&mut self, obs: &SlothObservation) {
+        let at = Some(At {
+            time_s: obs.time_s,
+            limb: None,
+        });
+        let contact = obs.limbs_in_contact() as u32;
+        if self.min_limbs_in_contact.is_none_or(|m| contact < m) {
+            self.min_limbs_in_contact = Some(contact);
+            self.worst[W_CONTACT] = at;
+        }
+        if obs.penetration_m > self.max_penetration_m {
+            self.max_penetration_m = obs.penetration_m;
+            self.worst[W_PENETRATION] = at;
+        }
+        if obs.on_trunk && obs.head_ws.y < obs.hips_ws.y {
+            self.head_below_hips_on_trunk_frames += 1;
+            if self.worst[W_HEAD].is_none() {
+                self.worst[W_HEAD] = at;
+            }
+        }
+    }
+
+    /// The report so far (the judge can keep observing afterwards).
+    pub fn finish(&self) -> JudgeReport {
+        let w = |i: usize| self.worst[i].map(At::report);
+        JudgeReport {
+            sloths: 1,
+            frames: self.frames,
+            duration_s: self.last_time_s,
+            time_limit_s: self.time_limit_s,
+            goal_reached: self.goal_time_s.is_some(),
+            goal_time_s: self.goal_time_s,
+            min_goal_distance_m: self.min_goal_distance_m,
+            goal_tolerance_m: self.tolerances.goal_tolerance_m,
+            max_grip_slip_m: self.max_grip_slip_m,
+            max_surface_gap_m: self.max_surface_gap_m,
+            max_reach_ratio: self.max_reach_ratio,
+            joint_limit_violations: self.joint_limit_violations,
+            max_limit_violation_rad: self.max_limit_violation_rad,
+            min_limbs_in_contact: self.min_limbs_in_contact.unwrap_or(0),
+            max_penetration_m: self.max_penetration_m,
+            head_below_hips_on_trunk_frames: self.head_below_hips_on_trunk_frames,
+            nan_count: self.nan_count,
+            worst: JudgeWorst {
+                max_grip_slip_m: w(W_GRIP_SLIP),
+                max_surface_gap_m: w(W_SURFACE_GAP),
+                max_reach_ratio: w(W_REACH),
+                max_limit_violation_rad: w(W_LIMIT),
+                min_limbs_in_contact: w(W_CONTACT),
+                max_penetration_m: w(W_PENETRATION),
+                head_below_hips_on_trunk_frames: w(W_HEAD),
+                nan_count: w(W_NAN),
+            },
+        }
+    }
+}
+
+/// When (and on which limb, if a limb measure) a worst value was first seen.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct MeasureAt {
+    /// Frame time, seconds.
+    pub time_s: f32,
+    /// `"LF"`, `"RF"`, `"LH"`, `"RH"`, or absent for a body measure.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub limb: Option<String>,
+}
+
+/// Where each worst value of a [`JudgeReport`] happened (`None`: never, e.g.
+/// no slip at all). Head-below-hips and NaN give their first frame.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct JudgeWorst {
+    /// Frame/limb of `max_grip_slip_m`.
+    pub max_grip_slip_m: Option<MeasureAt>,
+    /// Frame/limb of `max_surface_gap_m`.
+    pub max_surface_gap_m: Option<MeasureAt>,
+    /// Frame/limb of `max_reach_ratio`.
+    pub max_reach_ratio: Option<MeasureAt>,
+    /// Frame/limb of `max_limit_violation_rad`.
+    pub max_limit_violation_rad: Option<MeasureAt>,
+    /// Frame of `min_limbs_in_contact`.
+    pub min_limbs_in_contact: Option<MeasureAt>,
+    /// Frame of `max_penetration_m`.
+    pub max_penetration_m: Option<MeasureAt>,
+    /// First frame with the head below the hips on a trunk.
+    pub head_below_hips_on_trunk_frames: Option<MeasureAt>,
+    /// First frame with a NaN.
+    pub nan_count: Option<MeasureAt>,
+}
+
+/// What the judge measured over a run (or, merged, over a crowd).
+///
+/// JSON keys are the field names. Maxima start at 0 (nothing measured yet).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct JudgeReport {
+    /// Sloths this report covers (1 for one run; a crowd after [`JudgeReport::merge`]).
+    pub sloths: u32,
+    /// Frames observed (summed over sloths when merged).
+    pub frames: u64,
+    /// Simulation time of the last finite frame, seconds (clock starts at 0).
+    pub duration_s: f32,
+    /// The goal had to be reached by this time, seconds.
+    pub time_limit_s: f32,
+    /// Some frame had `goal_distance_m` ≤ `goal_tolerance_m` (at any time;
+    /// the verdict also checks `goal_time_s` ≤ `time_limit_s`). Merged: every sloth.
+    pub goal_reached: bool,
+    /// Time of the first such frame. Merged: the latest arrival, if all arrived.
+    pub goal_time_s: Option<f32>,
+    /// Closest approach to the goal, metres (`None` without frames). Merged: the farthest sloth's.
+    pub min_goal_distance_m: Option<f32>,
+    /// The goal tolerance used, metres.
+    pub goal_tolerance_m: f32,
+    /// Largest planted-grip slip, metres: for a limb planted in the previous
+    /// and the current frame, max of |effector − grip| (IK error at a held
+    /// grip), the grip's movement since the previous frame, and its movement
+    /// since the stance began (so a slow slide adds up).
+    pub max_grip_slip_m: f32,
+    /// Largest `surface_gap` of a planted limb, metres.
+    pub max_surface_gap_m: f32,
+    /// Largest |effector − root| / limb_length over all limbs and frames.
+    pub max_reach_ratio: f32,
+    /// Count of (frame, limb) with `limit_violation` > the epsilon.
+    pub joint_limit_violations: u64,
+    /// Largest `limit_violation`, radians.
+    pub max_limit_violation_rad: f32,
+    /// Fewest planted limbs in any frame (0 without frames).
+    pub min_limbs_in_contact: u32,
+    /// Deepest body/support penetration, metres.
+    pub max_penetration_m: f32,
+    /// Frames with `on_trunk` and the head lower (y) than the hips.
+    pub head_below_hips_on_trunk_frames: u64,
+    /// Frames with `has_nan` or a non-finite value.
+    pub nan_count: u64,
+    /// Where the worst values happened.
+    #[serde(default)]
+    pub worst: JudgeWorst,
+}
+
+/// Pass/fail and why.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Verdict {
+    /// No failures.
+    pub pass: bool,
+    /// One line per failed measure: name, value, limit (e.g.
+    /// `"max_grip_slip_m 0.0071 > 0.005 (LF at t=3.2 s)"`).
+    pub failures: Vec<String>,
+}
+
+/// Formats a measured float with up to 6 decimals, trailing zeros removed.
+fn num(v: f32) -> String {
+    let s = format!("{v:.6}");
+    let s = s.trim_end_matches('0').trim_end_matches('.');
+    if s.is_empty() || s == "-" || s == "-0" {
+        "0".to_string()
+    } else {
+        s.to_string()
+    }
+}
+
+fn with_at(mut msg: String, at: &Option<MeasureAt>) -> String {
+    if let Some(at) = at {
+        match &at.limb {
+            Some(limb) => write!(msg, " ({limb} at t={} s)", num(at.time_s)),
+            None => write!(msg, " (at t={} s)", num(at.time_s)),
+        }
+        .expect("writing to a String cannot fail");
+    }
+    msg
+}
+
+impl JudgeReport {
+    /// Decides pass/fail against `tol` (the goal tolerance of the report's
+    /// own judge decided `goal_reached`; `tol.goal_tolerance_m` is not
+    /// re-applied). A value equal to its limit passes.
+    pub fn verdict(&self, tol: &Tolerances) -> Verdict {
+        let mut failures = Vec::new();
+        let w = &self.worst;
+        if self.frames == 0 {
+            failures.push("frames 0: nothing observed".to_string());
+        }
+        match self.goal_time_s {
+            None => failures.push(match self.min_goal_distance_m {
+                Some(d) => format!(
+                    "goal_reached false: goal not reached (min_goal_distance_m {} > {})",
+                    num(d),
+                    num(self.goal_tolerance_m)
+                ),
+                None => "goal_reached false: goal not reached".to_string(),
+            }),
+            Some(t) if t > self.time_limit_s => failures.push(format!(
+                "goal_time_s {} > time_limit_s {}: goal not reached in time",
+                num(t),
+                num(self.time_limit_s)
+            )),
+            Some(_) => {}
+        }
+        if !self.goal_reached && self.goal_time_s.is_some() {
+            // Inconsistent merged/edited report: be strict.
+            failures.push("goal_reached false: goal not reached".to_string());
+        }
+        let mut upper = |name: &str, value: f32, max: f32, at: &Option<MeasureAt>| {
+            if value.is_nan() || value > max {
+                failures.push(with_at(format!("{name} {} > {}", num(value), num(max)), at));
+            }
+        };
+        upper(
+            "max_grip_slip_m",
+            self.max_grip_slip_m,
+            tol.max_grip_slip_m,
+            &w.max_grip_slip_m,
+        );
+        upper(
+            "max_surface_gap_m",
+            self.max_surface_gap_m,
+            tol.max_surface_gap_m,
+            &w.max_surface_gap_m,
+        );
+        upper(
+            "max_reach_ratio",
+            self.max_reach_ratio,
+            tol.max_reach_ratio,
+            &w.max_reach_ratio,
+        );
+        upper(
+            "max_penetration_m",
+            self.max_penetration_m,
+            tol.max_penetration_m,
+            &w.max_penetration_m,
+        );
+        if self.joint_limit_violations > tol.max_joint_limit_violations {
+            failures.push(with_at(
+                format!(
+                    "joint_limit_violations {} > {} (max_limit_violation_rad {})",
+                    self.joint_limit_violations,
+                    tol.max_joint_limit_violations,
+                    num(self.max_limit_violation_rad)
+                ),
+                &w.max_limit_violation_rad,
+            ));
+        }
+        if self.frames > 0 && self.min_limbs_in_contact < tol.min_limbs_in_contact {
+            failures.push(with_at(
+                format!(
+                    "min_limbs_in_contact {} < {}",
+                    self.min_limbs_in_contact, tol.min_limbs_in_contact
+                ),
+                &w.min_limbs_in_contact,
+            ));
+        }
+        if self.head_below_hips_on_trunk_frames > tol.max_head_below_hips_on_trunk_frames {
+            failures.push(with_at(
+                format!(
+                    "head_below_hips_on_trunk_frames {} > {}",
+                    self.head_below_hips_on_trunk_frames, tol.max_head_below_hips_on_trunk_frames
+                ),
+                &w.head_below_hips_on_trunk_frames,
+            ));
+        }
+        if self.nan_count > tol.max_nan_count {
+            failures.push(with_at(
+                format!("nan_count {} > {}", self.nan_count, tol.max_nan_count),
+                &w.nan_count,
+            ));
+        }
+        Verdict {
+            pass: failures.is_empty(),
+            failures,
+        }
+    }
+
+    /// One report for a crowd, folding with [`JudgeReport::merge`]; `None` if
+    /// there are no reports.
+    pub fn aggregate<'a>(reports: impl IntoIterator<Item = &'a JudgeReport>) -> Option<Self> {
+        let mut it = reports.into_iter();
+        let mut crowd = it.next()?.clone();
+        for r in it {
+            crowd.merge(r);
+        }
+        Some(crowd)
+    }
+
+    /// Folds `other` into `self` for a crowd: worst values win (max of
+    /// maxima, min of minima, sums of counts and frames); the goal counts as
+    /// reached only if every sloth reached it, at the latest arrival time;
+    /// `min_goal_distance_m` becomes the farthest sloth's closest approach;
+    /// `duration_s`, `time_limit_s` and `goal_tolerance_m` take the max.
+    /// A report with 0 sloths is the identity.
+    pub fn merge(&mut self, other: &JudgeReport) {
+        if other.sloths == 0 {
+            return;
+        }
+        if self.sloths == 0 {
+            *self = other.clone();
+            return;
+        }
+        fn worse_max(a: &mut f32, a_at: &mut Option<MeasureAt>, b: f32, b_at: &Option<MeasureAt>) {
+            if b > *a {
+                *a = b;
+                *a_at = b_at.clone();
+            }
+        }
+        let w = &other.worst;
+        self.sloths += other.sloths;
+        self.duration_s = self.duration_s.max(other.duration_s);
+        self.time_limit_s = self.time_limit_s.max(other.time_limit_s);
+        self.goal_tolerance_m = self.goal_tolerance_m.max(other.goal_tolerance_m);
+        self.goal_reached &= other.goal_reached;
+        self.goal_time_s = match (self.goal_time_s, other.goal_time_s) {
+            (Some(a), Some(b)) if self.goal_reached => Some(a.max(b)),
+            _ => None,
+        };
+        self.min_goal_distance_m = match (self.min_goal_distance_m, other.min_goal_distance_m) {
+            (Some(a), Some(b)) => Some(a.max(b)),
+            (a, b) => a.or(b),
+        };
+        worse_max(
+            &mut self.max_grip_slip_m,
+            &mut self.worst.max_grip_slip_m,
+            other.max_grip_slip_m,
+            &w.max_grip_slip_m,
+        );
+        worse_max(
+            &mut self.max_surface_gap_m,
+            &mut self.worst.max_surface_gap_m,
+            other.max_surface_gap_m,
+            &w.max_surface_gap_m,
+        );
+        worse_max(
+            &mut self.max_reach_ratio,
+            &mut self.worst.max_reach_ratio,
+            other.max_reach_ratio,
+            &w.max_reach_ratio,
+        );
+        worse_max(
+            &mut self.max_limit_violation_rad,
+            &mut self.worst.max_limit_violation_rad,
+            other.max_limit_violation_rad,
+            &w.max_limit_violation_rad,
+        );
+        worse_max(
+            &mut self.max_penetration_m,
+            &mut self.worst.max_penetration_m,
+            other.max_penetration_m,
+            &w.max_penetration_m,
+        );
+        self.joint_limit_violations += other.joint_limit_violations;
+        if other.frames > 0
+            && (self.frames == 0 || other.min_limbs_in_contact < self.min_limbs_in_contact)
+        {
+            self.min_limbs_in_contact = other.min_limbs_in_contact;
+            self.worst.min_limbs_in_contact = w.min_limbs_in_contact.clone();
+        }
+        self.frames += other.frames;
+        self.head_below_hips_on_trunk_frames += other.head_below_hips_on_trunk_frames;
+        if self.worst.head_below_hips_on_trunk_frames.is_none() {
+            self.worst.head_below_hips_on_trunk_frames = w.head_below_hips_on_trunk_frames.clone();
+        }
+        self.nan_count += other.nan_count;
+        if self.worst.nan_count.is_none() {
+            self.worst.nan_count = w.nan_count.clone();
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::stats::synthetic::{DT, Walk};
+
+    const TIME_LIMIT_S: f32 = 24.0;
+
+    fn judge_stream(
+        walk: &Walk,
+        time_limit_s: f32,
+        mut edit: impl FnMut(i64, &mut SlothObservation),
+    ) -> JudgeReport {
+        let mut judge = Judge::new(Tolerances::default(), time_limit_s);
+        for f in 1..=walk.frames {
+            let mut obs = walk.observation(f);
+            edit(f, &mut obs);
+            judge.observe(&obs);
+        }
+        judge.finish()
+    }
+
+    /// Judges the DSDC walk with `edit` applied and returns the failures.
+    fn failures_with(edit: impl FnMut(i64, &mut SlothObservation)) -> Vec<String> {
+        let report = judge_stream(&Walk::dsdc(), TIME_LIMIT_S, edit);
+        let verdict = report.verdict(&Tolerances::default());
+        assert_eq!(verdict.pass, verdict.failures.is_empty());
+        verdict.failures
+    }
+
+    /// Exactly one failure, naming `measure`.
+    fn assert_single_failure(failures: &[String], measure: &str) {
+        assert_eq!(failures.len(), 1, "{failures:?}");
+        assert!(failures[0].starts_with(measure), "{failures:?}");
+    }
+
+    #[test]
+    fn clean_walk_passes() {
+        let walk = Walk::dsdc();
+        let report = judge_stream(&walk, TIME_LIMIT_S, |_, _| {});
+        let verdict = report.verdict(&Tolerances::default());
+        assert!(verdict.pass, "{:?}", verdict.failures);
+        assert_eq!(report.frames, walk.frames as u64);
+        assert!(report.goal_reached);
+        let t = report.goal_time_s.unwrap();
+        assert!((t - walk.goal_time_s(0.3)).abs() <= 2.0 * DT, "{t}");
+        assert!((report.duration_s - walk.frames as f32 * DT).abs() < 1e-3);
+        assert!(report.max_grip_slip_m < 1e-5, "{}", report.max_grip_slip_m);
+        assert_eq!(report.max_surface_gap_m, 0.0);
+        assert!(report.max_reach_ratio > 0.3 && report.max_reach_ratio < 1.0);
+        assert_eq!(report.min_limbs_in_contact, 2);
+        assert_eq!(report.joint_limit_violations, 0);
+        assert_eq!(report.nan_count, 0);
+        assert_eq!(report.head_below_hips_on_trunk_frames, 0);
+    }
+
+    #[test]
+    fn ik_error_at_held_grip_is_a_slip() {
+        let f = failures_with(|f, o| {
+            let lf = &mut o.limbs[Limb::LF.index()];
+            if (400..410).contains(&f) && lf.planted {
+                lf.effector_ws.x += 0.0071;
+            }
+        });
+        assert_single_failure(&f, "max_grip_slip_m 0.0071 > 0.005");
+        assert!(f[0].contains("LF at t="), "{f:?}");
+    }
+
+    #[test]
+    fn grip_jump_is_a_slip() {
+        let f = failures_with(|f, o| {
+            let rh = &mut o.limbs[Limb::RH.index()];
+            if f == 100 && rh.planted {
+                rh.grip_ws.z += 0.01;
+                rh.effector_ws = rh.grip_ws;
+            }
+        });
+        assert_single_failure(&f, "max_grip_slip_m");
+    }
+
+    #[test]
+    fn slow_slide_adds_up_to_a_slip() {
+        // 1 mm per frame: below the limit frame to frame, 2 cm over the stance.
+        let mut slide: f32 = 0.0;
+        let f = failures_with(|f, o| {
+            let lh = &mut o.limbs[Limb::LH.index()];
+            if !lh.planted {
+                slide = 0.0;
+            } else if f > 300 {
+                slide += 0.001;
+                lh.grip_ws.z += slide.min(0.02);
+                lh.effector_ws = lh.grip_ws;
+            }
+        });
+        assert_single_failure(&f, "max_grip_slip_m");
+    }
+
+    #[test]
+    fn surface_gap_of_planted_limb_fails() {
+        let f = failures_with(|f, o| {
+            let rf = &mut o.limbs[Limb::RF.index()];
+            if f == 500 && rf.planted {
+                rf.surface_gap = 0.02;
+            }
+        });
+        assert_single_failure(&f, "max_surface_gap_m 0.02 > 0.01");
+        // A swinging limb's gap does not count (the walk's swing gap is 5 cm).
+    }
+
+    #[test]
+    fn over_reach_fails() {
+        let f = failures_with(|f, o| {
+            if f == 600 {
+                let lh = &mut o.limbs[Limb::LH.index()];
+                lh.root_ws = lh.effector_ws - Vec3::new(0.5, 0.0, 0.0);
+            }
+        });
+        assert_single_failure(&f, "max_reach_ratio 1.25 > 1");
+        assert!(f[0].contains("LH"), "{f:?}");
+    }
+
+    #[test]
+    fn limit_violation_fails_above_epsilon_only() {
+        let f = failures_with(|f, o| {
+            if f == 700 {
+                o.limbs[Limb::RF.index()].limit_violation = 0.01;
+            }
+        });
+        assert_single_failure(&f, "joint_limit_violations 1 > 0");
+        let f =
+            failures_with(|_, o| o.limbs[0].limit_violation = 0.5 * LIMIT_VIOLATION_EPSILON_RAD);
+        assert!(f.is_empty(), "{f:?}");
+    }
+
+    #[test]
+    fn one_limb_contact_fails() {
+        let f = failures_with(|f, o| {
+            if f == 800 {
+                // Keep only the first planted limb planted.
+                let keep = o.limbs.iter().position(|l| l.planted).unwrap();
+                for (i, l) in o.limbs.iter_mut().enumerate() {
+                    l.planted &= i == keep;
+                }
+            }
+        });
+        assert_single_failure(&f, "min_limbs_in_contact 1 < 2");
+    }
+
+    #[test]
+    fn penetration_fails() {
+        let f = failures_with(|f, o| {
+            if (900..905).contains(&f) {
+                o.penetration_m = 0.015;
+            }
+        });
+        assert_single_failure(&f, "max_penetration_m 0.015 > 0.01");
+    }
+
+    #[test]
+    fn head_below_hips_on_trunk_fails_only_on_trunk() {
+        let f = failures_with(|f, o| {
+            o.on_trunk = true;
+            if (100..103).contains(&f) {
+                o.head_ws.y = o.hips_ws.y - 0.1;
+            }
+        });
+        assert_single_failure(&f, "head_below_hips_on_trunk_frames 3 > 0");
+        let f = failures_with(|_, o| o.head_ws.y = o.hips_ws.y - 0.1);
+        assert!(f.is_empty(), "{f:?}");
+    }
+
+    #[test]
+    fn nan_flag_and_non_finite_values_fail() {
+        let f = failures_with(|f, o| o.has_nan = f == 10);
+        assert_single_failure(&f, "nan_count 1 > 0");
+
+        let walk = Walk::dsdc();
+        let report = judge_stream(&walk, TIME_LIMIT_S, |f, o| {
+            if f == 20 {
+                o.limbs[2].effector_ws.y = f32::NAN;
+                o.penetration_m = f32::INFINITY;
+            }
+            if f == 30 {
+                o.limbs[3].limb_length = 0.0;
+            }
+        });
+        assert_eq!(report.nan_count, 2);
+        // The bad frames do not poison the other measures.
+        assert!(report.max_penetration_m == 0.0 && report.max_reach_ratio < 1.0);
+        let f = report.verdict(&Tolerances::default()).failures;
+        assert_single_failure(&f, "nan_count 2 > 0");
+        serde_json::to_string(&report).unwrap();
+    }
+
+    #[test]
+    fn goal_not_reached_in_time_fails() {
+        let walk = Walk::dsdc();
+        let report = judge_stream(&walk, 10.0, |_, _| {});
+        assert!(report.goal_reached);
+        let f = report.verdict(&Tolerances::default()).failures;
+        assert_single_failure(&f, "goal_time_s 18.8");
+        assert!(f[0].contains("> time_limit_s 10"), "{f:?}");
+
+        let far = Walk {
+            goal_z: 100.0,
+            ..walk
+        };
+        let report = judge_stream(&far, TIME_LIMIT_S, |_, _| {});
+        assert!(!report.goal_reached && report.goal_time_s.is_none());
+        let f = report.verdict(&Tolerances::default()).failures;
+        assert_single_failure(&f, "goal_reached false: goal not reached");
+    }
+
+    #[test]
+    fn empty_stream_fails_goal_without_panic() {
+        let judge = Judge::new(Tolerances::default(), TIME_LIMIT_S);
+        let report = judge.finish();
+        assert_eq!(report.frames, 0);
+        assert!(!report.goal_reached);
+        let verdict = report.verdict(&Tolerances::default());
+        assert!(!verdict.pass);
+        assert!(
+            verdict
+                .failures
+                .iter()
+                .any(|f| f.contains("goal not reached")),
+            "{verdict:?}"
+        );
+        assert!(verdict.failures.iter().any(|f| f.starts_with("frames 0")));
+        let json = serde_json::to_string(&report).unwrap();
+        let back: JudgeReport = serde_json::from_str(&json).unwrap();
+        assert_eq!(back, report);
+    }
+
+    #[test]
+    fn json_keys_match_the_issue() {
+        let report = judge_stream(&Walk::dsdc(), TIME_LIMIT_S, |_, _| {});
+        let v = serde_json::to_value(&report).unwrap();
+        for key in [
+            "goal_reached",
+            "goal_time_s",
+            "max_grip_slip_m",
+            "max_surface_gap_m",
+            "max_reach_ratio",
+            "joint_limit_violations",
+            "max_limit_violation_rad",
+            "min_limbs_in_contact",
+            "max_penetration_m",
+            "head_below_hips_on_trunk_frames",
+            "nan_count",
+            "frames",
+            "duration_s",
+        ] {
+            assert!(v.get(key).is_some(), "missing {key}");
+        }
+        let back: JudgeReport = serde_json::from_value(v).unwrap();
+        assert_eq!(back, report);
+    }
+
+    #[test]
+    fn tolerances_default_to_issue_limits_and_reject_looser() {
+        let t = Tolerances::default();
+        assert_eq!(t.max_grip_slip_m, 0.005);
+        assert_eq!(t.max_surface_gap_m, 0.01);
+        assert_eq!(t.max_reach_ratio, 1.0);
+        assert_eq!(t.max_joint_limit_violations, 0);
+        assert_eq!(t.min_limbs_in_contact, 2);
+        assert_eq!(t.max_penetration_m, 0.01);
+        assert_eq!(t.max_nan_count, 0);
+        assert_eq!(t.max_head_below_hips_on_trunk_frames, 0);
+        assert_eq!(t.goal_tolerance_m, 0.3);
+        t.validate().unwrap();
+
+        let tighter = Tolerances {
+            max_grip_slip_m: 0.002,
+            min_limbs_in_contact: 3,
+            ..t
+        };
+        tighter.validate().unwrap();
+        let looser = Tolerances {
+            max_grip_slip_m: 0.006,
+            ..t
+        };
+        assert_eq!(looser.validate().unwrap_err().field, "max_grip_slip_m");
+        let one_limb = Tolerances {
+            min_limbs_in_contact: 1,
+            ..t
+        };
+        assert_eq!(
+            one_limb.validate().unwrap_err().field,
+            "min_limbs_in_contact"
+        );
+        let nan = Tolerances {
+            max_penetration_m: f32::NAN,
+            ..t
+        };
+        assert!(nan.validate().is_err());
+
+        // Partial TOML keeps the defaults for what it leaves out.
+        let parsed: Tolerances = toml::from_str("max_grip_slip_m = 0.003").unwrap();
+        assert_eq!(parsed.max_grip_slip_m, 0.003);
+        assert_eq!(parsed.max_surface_gap_m, 0.01);
+        assert!(toml::from_str::<Tolerances>("max_grip_slp_m = 0.003").is_err());
+    }
+
+    #[test]
+    fn tighter_tolerance_judges_the_same_report_stricter() {
+        let report = judge_stream(&Walk::dsdc(), TIME_LIMIT_S, |_, _| {});
+        let strict = Tolerances {
+            max_reach_ratio: 0.5,
+            ..Tolerances::default()
+        };
+        let f = report.verdict(&strict).failures;
+        assert_single_failure(&f, "max_reach_ratio");
+    }
+
+    #[test]
+    fn crowd_merge_keeps_the_worst() {
+        let clean = judge_stream(&Walk::dsdc(), TIME_LIMIT_S, |_, _| {});
+        let slipping = judge_stream(&Walk::dsdc(), TIME_LIMIT_S, |f, o| {
+            if f == 200 {
+                assert!(o.limbs[Limb::LH.index()].planted);
+                o.limbs[Limb::LH.index()].effector_ws.x += 0.02;
+                o.penetration_m = 0.003;
+            }
+        });
+        let lost = judge_stream(
+            &Walk {
+                goal_z: 100.0,
+                ..Walk::dsdc()
+            },
+            TIME_LIMIT_S,
+            |_, _| {},
+        );
+        let crowd = JudgeReport::aggregate([&clean, &slipping]).unwrap();
+        assert_eq!(crowd.sloths, 2);
+        assert_eq!(crowd.frames, clean.frames * 2);
+        assert_eq!(crowd.max_grip_slip_m, slipping.max_grip_slip_m);
+        assert_eq!(crowd.worst.max_grip_slip_m, slipping.worst.max_grip_slip_m);
+        assert_eq!(crowd.max_penetration_m, 0.003);
+        assert!(crowd.goal_reached);
+        let f = crowd.verdict(&Tolerances::default()).failures;
+        assert_single_failure(&f, "max_grip_slip_m");
+
+        let crowd = JudgeReport::aggregate([&clean, &lost]).unwrap();
+        assert!(!crowd.goal_reached && crowd.goal_time_s.is_none());
+        assert!(crowd.min_goal_distance_m.unwrap() > 90.0);
+        assert!(JudgeReport::aggregate([]).is_none());
+    }
+}
