@@ -598,20 +598,26 @@ pub(crate) mod synthetic {
     }
 
     impl Walk {
-        /// Offsets in quarters of the cycle, `order[0]` lifting first (at frame 12).
-        fn with_order(order: [Limb; 4]) -> Walk {
+        /// Limbs lift off a quarter cycle apart in `order`, `order[0]` first
+        /// (at frame 12); ten cycles long.
+        pub fn new(order: [Limb; 4], cycle_frames: i64, swing_frames: i64, speed_mps: f32) -> Walk {
             let mut offsets = [0; 4];
             for (q, limb) in order.into_iter().enumerate() {
-                offsets[limb.index()] = 12 + 36 * q as i64;
+                offsets[limb.index()] = 12 + cycle_frames * q as i64 / 4;
             }
             Walk {
-                cycle_frames: 144,
-                swing_frames: 48,
+                cycle_frames,
+                swing_frames,
                 offsets,
-                speed_mps: 0.25,
-                frames: 1440,
+                speed_mps,
+                frames: 10 * cycle_frames,
                 goal_z: 5.0,
             }
+        }
+
+        /// 2.4 s cycle (1.6 s contact, 0.8 s swing), 0.6 m stride, 0.25 m/s.
+        fn with_order(order: [Limb; 4]) -> Walk {
+            Walk::new(order, 144, 48, 0.25)
         }
 
         /// Diagonal sequence, phases RH 0, LF .25, LH .5, RF .75.
@@ -964,5 +970,69 @@ mod tests {
         // The empty report is the identity.
         assert_eq!(GaitReport::aggregate([&GaitReport::default(), &a]), a);
         assert_eq!(GaitReport::aggregate([]).sloths, 0);
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(48))]
+
+        /// Any regular walk (cycle, swing share, speed, footfall order) is
+        /// recovered within a frame, and its order is found up to rotation.
+        #[test]
+        fn any_regular_walk_is_recovered(
+            quarter in 10i64..60,
+            swing_share in 0.15f32..0.6,
+            speed in 0.03f32..0.5,
+            order_index in 0usize..24,
+        ) {
+            let mut order = Limb::ALL;
+            let mut k = order_index;
+            for i in (1..4).rev() {
+                order.swap(i, k % (i + 1));
+                k /= i + 1;
+            }
+            let cycle = 4 * quarter;
+            let swing = ((cycle as f32 * swing_share) as i64).max(1);
+            let walk = Walk::new(order, cycle, swing, speed);
+            let stats = stats_of(walk.observations());
+            let report = stats.finish();
+            assert_recovers(&walk, &report);
+            proptest::prop_assert_eq!(stats.dominant_sequence(), Some(canonical_rotation(order)));
+        }
+
+        /// Arbitrary, partly non-finite streams never panic and always serialise.
+        #[test]
+        fn arbitrary_streams_do_not_panic(
+            frames in proptest::collection::vec(
+                (proptest::bool::ANY, proptest::bool::ANY, -1.0f32..1.0, 0u8..8), 0..80),
+        ) {
+            let base = Walk::dsdc().observation(1);
+            let mut stats = GaitStats::new();
+            let mut judge = crate::judge::Judge::new(crate::judge::Tolerances::default(), 5.0);
+            for (i, (planted_a, planted_b, x, poison)) in frames.into_iter().enumerate() {
+                let mut o = base;
+                o.time_s = i as f32 * DT;
+                o.body_pos.x = x;
+                o.limbs[0].planted = planted_a;
+                o.limbs[3].planted = planted_b;
+                o.limbs[3].grip_ws.z += x;
+                match poison {
+                    0 => o.limbs[1].root_ws.y = f32::NAN,
+                    1 => o.goal_distance_m = f32::INFINITY,
+                    2 => o.has_nan = true,
+                    _ => {}
+                }
+                stats.observe(&o);
+                judge.observe(&o);
+            }
+            let report = stats.finish();
+            let judged = judge.finish();
+            proptest::prop_assert!(report.speed_mps_mean.is_finite());
+            proptest::prop_assert!(judged.nan_count <= judged.frames);
+            serde_json::to_string(&report).unwrap();
+            let json = serde_json::to_string(&judged).unwrap();
+            let back: crate::judge::JudgeReport = serde_json::from_str(&json).unwrap();
+            proptest::prop_assert_eq!(back, judged.clone());
+            let _ = judged.verdict(&crate::judge::Tolerances::default());
+        }
     }
 }
