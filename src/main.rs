@@ -1,5 +1,6 @@
 //! The `slothsim` command line.
 
+mod scenario_cmd;
 mod scene_cmd;
 
 use std::process::ExitCode;
@@ -19,18 +20,22 @@ enum Command {
     /// Forests and scenario scenes: export to glTF, describe.
     #[command(subcommand)]
     Scene(scene_cmd::SceneCommand),
+    /// Run one sloth on a thesis scenario preset and judge it (exit 0 pass, 1 fail).
+    Scenario(scenario_cmd::ScenarioArgs),
 }
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
-        Command::Scene(cmd) => scene_cmd::run(cmd),
+        Command::Scene(cmd) => scene_cmd::run(cmd).map(|()| true),
+        Command::Scenario(args) => scenario_cmd::scenario(args),
     };
     match result {
-        Ok(()) => ExitCode::SUCCESS,
+        Ok(true) => ExitCode::SUCCESS,
+        Ok(false) => ExitCode::from(1),
         Err(err) => {
             eprintln!("error: {}", error_chain(&err));
-            ExitCode::FAILURE
+            ExitCode::from(2)
         }
     }
 }

@@ -15,7 +15,9 @@ use crate::SceneError;
 pub const TRUNK_TILT_DEG: f32 = 70.0;
 
 /// Stable identifier of a support inside its scene (its index in `Scene::supports`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
+#[derive(
+    Clone, Copy, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize,
+)]
 pub struct SupportId(pub u32);
 
 impl std::fmt::Display for SupportId {

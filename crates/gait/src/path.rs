@@ -1,0 +1,97 @@
+//! Arc-length helpers over a support's axis polyline, and the static support
+//! adjacency graph (which supports touch which) built once per forest.
+
+use glam::Vec3;
+use slothsim_scene::{BoxOverlap, SceneQuery, Support, SupportId};
+
+/// A point on a support's axis.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AxisPoint {
+    /// Arc length from the first node (metres).
+    pub u: f32,
+    /// Position on the axis.
+    pub point: Vec3,
+    /// Unit tangent (toward increasing `u`).
+    pub tangent: Vec3,
+    /// Radius there.
+    pub radius: f32,
+}
+
+/// The axis point at arc length `u` (clamped to the support).
+pub fn axis_at(s: &Support, u: f32) -> AxisPoint {
+    let mut acc = 0.0;
+    let last = s.nodes.len() - 2;
+    for i in 0..=last {
+        let (a, b) = (s.nodes[i], s.nodes[i + 1]);
+        let len = a.distance(b);
+        if u <= acc + len || i == last {
+            let t = ((u - acc) / len).clamp(0.0, 1.0);
+            return AxisPoint {
+                u: acc + t * len,
+                point: a.lerp(b, t),
+                tangent: (b - a) / len,
+                radius: s.radii[i] + (s.radii[i + 1] - s.radii[i]) * t,
+            };
+        }
+        acc += len;
+    }
+    unreachable!("supports have at least one segment")
+}
+
+/// The closest axis point to `p`.
+pub fn project(s: &Support, p: Vec3) -> AxisPoint {
+    let mut best = (f32::INFINITY, 0.0f32);
+    let mut acc = 0.0;
+    for w in s.nodes.windows(2) {
+        let (q, t) = slothsim_scene::closest_on_segment(w[0], w[1], p);
+        let len = w[0].distance(w[1]);
+        let d2 = q.distance_squared(p);
+        if d2 < best.0 {
+            best = (d2, acc + t * len);
+        }
+        acc += len;
+    }
+    axis_at(s, best.1)
+}
+
+/// Which supports touch or nearly touch which: `neighbours(id)` lists the
+/// supports whose surfaces come within `gap` of it. Built once (static forest).
+#[derive(Clone, Debug, Default)]
+pub struct Adjacency {
+    lists: Vec<Vec<SupportId>>,
+}
+
+impl Adjacency {
+    /// Builds the graph with box overlaps around every segment, grown by `gap`.
+    pub fn build(query: SceneQuery<'_>, gap: f32) -> Self {
+        let scene = query.scene();
+        let mut lists = vec![Vec::new(); scene.supports().len()];
+        let mut found = Vec::new();
+        for s in scene.supports() {
+            let mut near: Vec<SupportId> = Vec::new();
+            for (i, w) in s.nodes.windows(2).enumerate() {
+                let r = s.radii[i].max(s.radii[i + 1]) + gap;
+                let (a, b) = (w[0], w[1]);
+                let axis = (b - a).normalize();
+                let rot = glam::Quat::from_rotation_arc(Vec3::Z, axis);
+                let bx = BoxOverlap {
+                    center: (a + b) * 0.5,
+                    half_extents: Vec3::new(r, r, a.distance(b) * 0.5 + r),
+                    rotation: rot,
+                };
+                if query.overlap_box(&bx, &mut found).is_ok() {
+                    near.extend(found.iter().copied().filter(|&o| o != s.id));
+                }
+            }
+            near.sort_unstable();
+            near.dedup();
+            lists[s.id.0 as usize] = near;
+        }
+        Adjacency { lists }
+    }
+
+    /// Neighbours of a support, sorted by id.
+    pub fn neighbours(&self, id: SupportId) -> &[SupportId] {
+        self.lists.get(id.0 as usize).map_or(&[], |v| v.as_slice())
+    }
+}

@@ -1,0 +1,776 @@
+//! One sloth's locomotion state and the per-stage kernels the simulation runs
+//! on it (thesis chapter 3). Everything is plain data and pure functions of
+//! (sloth, shared read-only world); the ECS only schedules them.
+//!
+//! Frame stages (see the sim crate's schedule):
+//! 1. **Trace** — the sim runs this sloth's [`TraceBatch`] against the BVH.
+//! 2. **StepSearch** — [`Sloth::step_search`]: limbs that are searching pick
+//!    the first valid candidate (farthest first, 1 cm back-off) and start
+//!    their swing, or queue the next candidates.
+//! 3. **BodyAverage** — [`Sloth::body_average`]: swing arcs advance, then the
+//!    body is placed by formulas 6 and 7 (smoothed).
+//! 4. **CcdSolve** — [`Sloth::solve_limbs`]: CCD IK of each limb toward its
+//!    grip or swing-arc point.
+//! 5. **Transitions** — [`Sloth::transitions`]: the gait clock lifts limbs in
+//!    footfall order and queues their first step-search traces; goal and
+//!    stop rules.
+
+use glam::{Quat, Vec3};
+use serde::{Deserialize, Serialize};
+use slothsim_rig::{CcdParams, ChainPose, Limb};
+use slothsim_scene::{
+    LineTrace, Scene, SceneQuery, SupportId, SupportKind, TraceRequest, TraceResult,
+};
+
+use crate::config::LocomotionConfig;
+use crate::observe::{LimbObservation, SlothObservation};
+use crate::path::{Adjacency, axis_at, project};
+use crate::rigdata::{BODY_RADIUS, RigData};
+
+/// Trace slots per sloth per frame.
+pub const MAX_TRACES: usize = 8;
+/// Candidates traced per searching limb per frame.
+const CANDIDATES_PER_LIMB: usize = 4;
+/// How far outside the surface a grip trace starts.
+const TRACE_STANDOFF: f32 = 0.15;
+/// Grips keep this far from a support's ends.
+const END_MARGIN: f32 = 0.03;
+/// A grip closer to its root than this fraction of reach is too folded.
+const MIN_REACH_FRACTION: f32 = 0.3;
+
+/// Shared read-only inputs of the kernels.
+#[derive(Clone, Copy)]
+pub struct World<'a> {
+    /// Locomotion parameters (validated).
+    pub cfg: &'a LocomotionConfig,
+    /// Rig data.
+    pub rig: &'a RigData,
+    /// Body offset below the paws (formula 7), resolved.
+    pub body_offset: f32,
+    /// Trace queries over the forest.
+    pub query: SceneQuery<'a>,
+    /// Support adjacency.
+    pub adjacency: &'a Adjacency,
+    /// IK parameters.
+    pub ccd: &'a CcdParams,
+}
+
+impl World<'_> {
+    fn scene(&self) -> &Scene {
+        self.query.scene()
+    }
+}
+
+/// A grip on a support.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Grip {
+    /// Contact point on the surface (world).
+    pub point: Vec3,
+    /// Surface normal there.
+    pub normal: Vec3,
+    /// The support.
+    pub support: SupportId,
+    /// Arc length of the point's axis projection.
+    pub u: f32,
+    /// Travel direction along the support's axis (+1 increasing `u`).
+    pub sdir: f32,
+}
+
+/// What a limb is doing.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum LimbPhase {
+    /// Holding its grip.
+    Planted,
+    /// Holding its grip while its step search runs.
+    Searching,
+    /// Travelling on the swing arc to its new grip.
+    Swinging,
+}
+
+/// Where a limb's step search stands.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Search {
+    /// Support being searched.
+    pub support: SupportId,
+    /// Travel direction along it.
+    pub sdir: f32,
+    /// Next candidate arc length.
+    pub next_u: f32,
+    /// Last candidate arc length (inclusive).
+    pub last_u: f32,
+    /// Index of the next neighbour support to try once this one is exhausted
+    /// (`u16::MAX` = searching the current support).
+    pub neighbour: u16,
+    /// Candidates traced so far.
+    pub traced: u16,
+}
+
+/// One limb.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LimbState {
+    /// Phase.
+    pub phase: LimbPhase,
+    /// Held grip (planted/searching) or the grip being swung to.
+    pub grip: Grip,
+    /// Swing start point and normal.
+    pub from: Vec3,
+    /// Surface normal at the swing start.
+    pub from_normal: Vec3,
+    /// Swing progress 0..1.
+    pub swing_t: f32,
+    /// IK target this frame.
+    pub target: Vec3,
+    /// Warm-started IK pose.
+    pub pose: ChainPose,
+    /// Chain root this frame (world).
+    pub root: Vec3,
+    /// Claw tip after IK (world).
+    pub effector: Vec3,
+    /// Search state (valid while `Searching`).
+    pub search: Search,
+    /// The gait clock asked this limb to step and it has not yet.
+    pub due: bool,
+}
+
+/// Why a sloth stopped.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Status {
+    /// Walking.
+    Moving,
+    /// Reached its goal.
+    Arrived,
+    /// A leading limb found no valid grip anywhere within reach.
+    NoGrip,
+}
+
+/// One sloth.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Sloth {
+    /// Body position (model origin) and rotation (model +Z forward, +Y toward the support).
+    pub body_pos: Vec3,
+    /// Body rotation.
+    pub body_rot: Quat,
+    /// Limbs by `Limb::index`.
+    pub limbs: [LimbState; 4],
+    /// Gait clock phase 0..1.
+    pub clock: f32,
+    /// +1: travel head first; −1: tail first (descending a trunk head-up).
+    pub dir: f32,
+    /// Simulated time.
+    pub time: f32,
+    /// Status.
+    pub status: Status,
+    /// Goal: support and point, if any.
+    pub goal: Option<(SupportId, Vec3)>,
+    /// Goal tolerance (metres).
+    pub goal_tolerance: f32,
+}
+
+/// This sloth's trace requests for the next Trace stage and their results.
+#[derive(Clone, Debug)]
+pub struct TraceBatch {
+    /// Requests (first `len`).
+    pub reqs: [TraceRequest; MAX_TRACES],
+    /// Which candidate each request traces.
+    pub meta: [Candidate; MAX_TRACES],
+    /// Results, filled by the Trace stage.
+    pub results: [TraceResult; MAX_TRACES],
+    /// Number of requests.
+    pub len: usize,
+}
+
+impl Default for TraceBatch {
+    fn default() -> Self {
+        let req = TraceRequest::Line(LineTrace {
+            origin: Vec3::ZERO,
+            dir: Vec3::Y,
+            max_dist: 0.0,
+        });
+        TraceBatch {
+            reqs: [req; MAX_TRACES],
+            meta: [Candidate::default(); MAX_TRACES],
+            results: [Ok(None); MAX_TRACES],
+            len: 0,
+        }
+    }
+}
+
+impl TraceBatch {
+    /// Runs the requests (the Trace stage does exactly this, batched over sloths).
+    pub fn run(&mut self, query: &SceneQuery<'_>) {
+        for i in 0..self.len {
+            self.results[i] = query.trace(&self.reqs[i]);
+        }
+    }
+
+    fn push(&mut self, req: TraceRequest, meta: Candidate) -> bool {
+        if self.len == MAX_TRACES {
+            return false;
+        }
+        self.reqs[self.len] = req;
+        self.meta[self.len] = meta;
+        self.results[self.len] = Ok(None);
+        self.len += 1;
+        true
+    }
+}
+
+/// A step-search candidate being traced.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Candidate {
+    /// Limb index.
+    pub limb: u8,
+    /// Support the candidate is on.
+    pub support: SupportId,
+    /// Arc length on it.
+    pub u: f32,
+    /// Travel direction along it.
+    pub sdir: f32,
+    /// Direction from the axis toward the trace origin (the limb's side).
+    pub out: Vec3,
+}
+
+/// Spawn description: a support, a point on its axis, travel direction and the body side.
+#[derive(Clone, Copy, Debug)]
+pub struct SpawnHint {
+    /// Support.
+    pub support: SupportId,
+    /// Point on the axis (body centre's projection).
+    pub position: Vec3,
+    /// Travel direction.
+    pub forward: Vec3,
+    /// Direction from the axis to the body.
+    pub body_side: Vec3,
+}
+
+#[inline]
+fn smoothstep(t: f32) -> f32 {
+    let t = t.clamp(0.0, 1.0);
+    t * t * (3.0 - 2.0 * t)
+}
+
+/// Body frame for a support: (forward, up toward the support) at an axis point.
+/// Branch: up = world +Y made perpendicular to forward. Trunk: forward = the
+/// axis pointing up (head up), up = from the body toward the axis.
+fn support_frame(kind: SupportKind, tangent_travel: Vec3, axis_tangent: Vec3, body_side: Vec3) -> (Vec3, Vec3) {
+    match kind {
+        SupportKind::Branch => {
+            let f = tangent_travel;
+            let up = (Vec3::Y - f * f.dot(Vec3::Y)).normalize_or(Vec3::Z.cross(f).normalize_or(Vec3::X));
+            (f, up)
+        }
+        SupportKind::Trunk => {
+            let f = if axis_tangent.y >= 0.0 { axis_tangent } else { -axis_tangent };
+            let up = -(body_side - f * f.dot(body_side)).normalize_or(f.any_orthonormal_vector());
+            (f, up)
+        }
+    }
+}
+
+/// Which way from the axis a limb's grip sits: its side, turned toward the
+/// body on trunks.
+fn grip_out(kind: SupportKind, limb: Limb, f: Vec3, up: Vec3, trunk_angle: f32) -> Vec3 {
+    let right = f.cross(up);
+    let side = if limb.is_left() { -right } else { right };
+    match kind {
+        SupportKind::Branch => side,
+        SupportKind::Trunk => (side * trunk_angle.cos() - up * trunk_angle.sin()).normalize(),
+    }
+}
+
+fn rotation_from(f: Vec3, up: Vec3) -> Quat {
+    let z = f.normalize_or(Vec3::Z);
+    let y = (up - z * z.dot(up)).normalize_or(z.any_orthonormal_vector());
+    let x = y.cross(z);
+    Quat::from_mat3(&glam::Mat3::from_cols(x, y, z)).normalize()
+}
+
+impl Sloth {
+    /// Places a sloth with all four limbs gripping around `hint`, body
+    /// averaged, limbs solved. Grips are placed analytically on the surface.
+    pub fn spawn(w: &World<'_>, hint: &SpawnHint, goal: Option<(SupportId, Vec3, f32)>) -> Sloth {
+        let scene = w.scene();
+        let s = scene.support(hint.support);
+        let c = project(s, hint.position);
+        let sdir = if c.tangent.dot(hint.forward) >= 0.0 { 1.0 } else { -1.0 };
+        let (f, up) = support_frame(s.kind, c.tangent * sdir, c.tangent, hint.body_side);
+        let dir = if s.kind == SupportKind::Trunk && hint.forward.dot(f) < 0.0 { -1.0 } else { 1.0 };
+        // Paws above their roots, roughly where the neutral pose puts them.
+        let mut limbs = [LimbState {
+            phase: LimbPhase::Planted,
+            grip: Grip { point: c.point, normal: Vec3::Y, support: hint.support, u: c.u, sdir },
+            from: c.point,
+            from_normal: Vec3::Y,
+            swing_t: 0.0,
+            target: c.point,
+            pose: ChainPose::NEUTRAL,
+            root: c.point,
+            effector: c.point,
+            search: Search { support: hint.support, sdir, next_u: 0.0, last_u: 0.0, neighbour: u16::MAX, traced: 0 },
+            due: false,
+        }; 4];
+        let len = s.length();
+        for limb in Limb::ALL {
+            let along = w.rig.neutral_tip_ms[limb.index()].z * 0.9;
+            let u = (c.u + along * sdir * f.dot(c.tangent * sdir).signum()).clamp(END_MARGIN, len - END_MARGIN);
+            let a = axis_at(s, u);
+            let out = grip_out(s.kind, limb, f, up, w.cfg.trunk_grip_angle_deg.to_radians());
+            let l = &mut limbs[limb.index()];
+            l.grip = Grip { point: a.point + out * a.radius, normal: out, support: hint.support, u, sdir };
+            l.target = l.grip.point;
+            l.from = l.grip.point;
+            l.from_normal = out;
+        }
+        let mut sloth = Sloth {
+            body_pos: c.point - up * w.body_offset,
+            body_rot: rotation_from(f, up),
+            limbs,
+            clock: 0.0,
+            dir,
+            time: 0.0,
+            status: Status::Moving,
+            goal: goal.map(|(s, p, _)| (s, p)),
+            goal_tolerance: goal.map_or(0.3, |g| g.2),
+        };
+        let (pos, rot) = sloth.averaged_body(w);
+        sloth.body_pos = pos;
+        sloth.body_rot = rot;
+        let cold = CcdParams { max_iterations: 256, ..*w.ccd };
+        for _ in 0..4 {
+            sloth.solve_limbs_with(w, &cold);
+        }
+        sloth
+    }
+
+    fn targets(&self) -> [Vec3; 4] {
+        self.limbs.map(|l| l.target)
+    }
+
+    /// Body frame toward the support the fore limbs hold (formula 6 gives forward).
+    fn body_frame(&self, w: &World<'_>, t: &[Vec3; 4]) -> (Vec3, Vec3) {
+        let (lf, rf, lh, rh) = (t[Limb::LF.index()], t[Limb::RF.index()], t[Limb::LH.index()], t[Limb::RH.index()]);
+        // Formula 6: average of the hind → fore directions of both sides.
+        let fwd = ((rf - rh).normalize_or_zero() + (lf - lh).normalize_or_zero()).normalize_or(self.body_rot * Vec3::Z);
+        let mean = (lf + rf + lh + rh) * 0.25;
+        let fore_support = self.limbs[Limb::LF.index()].grip.support;
+        let s = w.scene().support(fore_support);
+        let on_trunk = s.kind == SupportKind::Trunk && self.limbs[Limb::RF.index()].grip.support == fore_support;
+        let up = if on_trunk {
+            let a = project(s, mean);
+            let body_side = self.body_pos - a.point;
+            -(body_side - fwd * fwd.dot(body_side)).normalize_or(self.body_rot * Vec3::Y * -1.0)
+        } else {
+            Vec3::Y
+        };
+        let up = (up - fwd * fwd.dot(up)).normalize_or(self.body_rot * Vec3::Y);
+        (fwd, up)
+    }
+
+    /// Formulas 6 and 7 for the current targets: (position, rotation).
+    fn averaged_body(&self, w: &World<'_>) -> (Vec3, Quat) {
+        self.body_for_targets(w, &self.targets())
+    }
+
+    fn body_for_targets(&self, w: &World<'_>, t: &[Vec3; 4]) -> (Vec3, Quat) {
+        let (f, up) = self.body_frame(w, t);
+        let mean = (t[0] + t[1] + t[2] + t[3]) * 0.25;
+        (mean - up * w.body_offset, rotation_from(f, up))
+    }
+
+    /// Whether every limb can hold `grips` from the body those grips imply.
+    fn stance_reachable(&self, w: &World<'_>, grips: &[Vec3; 4]) -> bool {
+        let (pos, rot) = self.body_for_targets(w, grips);
+        let max = w.rig.reach * w.cfg.max_reach_fraction;
+        let min = w.rig.reach * MIN_REACH_FRACTION;
+        (0..4).all(|i| {
+            let d = Vec3::from(w.rig.root_ws(i, pos, rot).position).distance(grips[i]);
+            d <= max && d >= min
+        })
+    }
+
+    /// Travel vector (unit): body forward × dir.
+    fn travel(&self) -> Vec3 {
+        self.body_rot * Vec3::Z * self.dir
+    }
+
+    // ---------------------------------------------------------------- stage 2
+
+    /// StepSearch: evaluate traced candidates (in order: farthest first); the
+    /// first valid one becomes the limb's new grip and its swing starts. Limbs
+    /// still searching queue their next candidates into `batch`.
+    pub fn step_search(&mut self, w: &World<'_>, batch: &mut TraceBatch) {
+        let mut chosen = [false; 4];
+        for i in 0..batch.len {
+            let m = batch.meta[i];
+            let li = m.limb as usize;
+            if chosen[li] || self.limbs[li].phase != LimbPhase::Searching {
+                continue;
+            }
+            let Ok(Some(hit)) = batch.results[i] else { continue };
+            if hit.support != m.support || hit.normal.dot(m.out) < 0.3 {
+                continue;
+            }
+            let mut grips = self.limbs.map(|l| l.grip.point);
+            grips[li] = hit.point;
+            if !self.stance_reachable(w, &grips) {
+                continue;
+            }
+            chosen[li] = true;
+            let l = &mut self.limbs[li];
+            l.from = l.grip.point;
+            l.from_normal = l.grip.normal;
+            l.grip = Grip { point: hit.point, normal: hit.normal, support: m.support, u: m.u, sdir: m.sdir };
+            l.phase = LimbPhase::Swinging;
+            l.swing_t = 0.0;
+        }
+        batch.len = 0;
+        for li in 0..4 {
+            if self.limbs[li].phase == LimbPhase::Searching {
+                self.queue_candidates(w, li, batch);
+            }
+        }
+    }
+
+    /// Queues up to [`CANDIDATES_PER_LIMB`] traces for limb `li`, continuing
+    /// its search; moves on to neighbouring supports when the current one is
+    /// exhausted; gives up (limb stays planted) when nothing is left.
+    fn queue_candidates(&mut self, w: &World<'_>, li: usize, batch: &mut TraceBatch) {
+        let scene = w.scene();
+        let limb = Limb::ALL[li];
+        let mut queued = 0;
+        loop {
+            let sr = self.limbs[li].search;
+            let s = scene.support(sr.support);
+            let len = s.length();
+            let mut u = sr.next_u;
+            let step_sign = -sr.sdir; // back off toward the current grip
+            while queued < CANDIDATES_PER_LIMB && (u - sr.last_u) * sr.sdir >= -1e-6 {
+                let cand_u = u;
+                u += step_sign * w.cfg.backoff_m;
+                if cand_u < END_MARGIN || cand_u > len - END_MARGIN {
+                    continue;
+                }
+                if let Some((req, meta)) = self.candidate(w, li, sr.support, cand_u, sr.sdir) {
+                    if batch.push(req, meta) {
+                        queued += 1;
+                    } else {
+                        u -= step_sign * w.cfg.backoff_m;
+                        break;
+                    }
+                }
+            }
+            self.limbs[li].search.next_u = u;
+            self.limbs[li].search.traced += queued as u16;
+            if queued > 0 || batch.len == MAX_TRACES {
+                return;
+            }
+            // This support is exhausted: try the next neighbour.
+            if !self.next_neighbour(w, li) {
+                // Nothing anywhere: stay planted.
+                let l = &mut self.limbs[li];
+                l.phase = LimbPhase::Planted;
+                l.due = false;
+                if limb.is_fore() && self.status == Status::Moving {
+                    self.status = Status::NoGrip;
+                }
+                return;
+            }
+        }
+    }
+
+    /// Sets up the search on the next admissible neighbour support. False when none is left.
+    fn next_neighbour(&mut self, w: &World<'_>, li: usize) -> bool {
+        let scene = w.scene();
+        let limb = Limb::ALL[li];
+        let cur = self.limbs[li].grip;
+        let neighbours = w.adjacency.neighbours(cur.support);
+        let mut k = match self.limbs[li].search.neighbour {
+            u16::MAX => 0usize,
+            n => n as usize,
+        };
+        // The supports the fore limbs hold, for "fore limbs transfer first".
+        let fore_supports = [self.limbs[Limb::LF.index()].grip.support, self.limbs[Limb::RF.index()].grip.support];
+        let fore_on_cur = fore_supports.contains(&cur.support);
+        while k < neighbours.len() {
+            let sid = neighbours[k];
+            k += 1;
+            let s2 = scene.support(sid);
+            // Hind limbs only follow onto a support a fore limb already holds,
+            // and leave a trunk only when no fore limb is on it.
+            if !limb.is_fore() && (!fore_supports.contains(&sid) || fore_on_cur) {
+                continue;
+            }
+            let root = self.limbs[li].root;
+            let entry = project(s2, (cur.point + root) * 0.5);
+            if entry.point.distance(root) > w.rig.reach {
+                continue;
+            }
+            let sdir = self.choose_sdir(w, sid, entry.tangent);
+            let u0 = entry.u + sdir * w.cfg.search_distance_m;
+            let last = entry.u - sdir * 0.15;
+            self.limbs[li].search = Search { support: sid, sdir, next_u: u0, last_u: last, neighbour: k as u16, traced: self.limbs[li].search.traced };
+            return true;
+        }
+        self.limbs[li].search.neighbour = k as u16;
+        false
+    }
+
+    /// Travel direction along a new support: toward the goal if it is on it,
+    /// else for a trunk up (+1 travel) or down per `dir`, else the direction
+    /// that continues the current travel.
+    fn choose_sdir(&self, w: &World<'_>, sid: SupportId, tangent: Vec3) -> f32 {
+        let s = w.scene().support(sid);
+        if let Some((gs, gp)) = self.goal {
+            let g = project(s, gp);
+            let here = project(s, self.body_pos);
+            if gs == sid || g.point.distance(gp) < 1.0 {
+                return if g.u >= here.u { 1.0 } else { -1.0 };
+            }
+        }
+        let want = if s.kind == SupportKind::Trunk { Vec3::Y * self.dir } else { self.travel() };
+        if tangent.dot(want) >= 0.0 { 1.0 } else { -1.0 }
+    }
+
+    /// A candidate at arc length `u` of support `sid`, if it passes the cheap
+    /// checks (step length, leg order, reach at the predicted stance): its trace.
+    fn candidate(&self, w: &World<'_>, li: usize, sid: SupportId, u: f32, sdir: f32) -> Option<(TraceRequest, Candidate)> {
+        let limb = Limb::ALL[li];
+        let s = w.scene().support(sid);
+        let a = axis_at(s, u);
+        let body_side = self.body_pos - a.point;
+        let (f, up) = support_frame(s.kind, a.tangent * sdir, a.tangent, body_side);
+        let out = grip_out(s.kind, limb, f, up, w.cfg.trunk_grip_angle_deg.to_radians());
+        let approx = a.point + out * a.radius;
+        let cur = self.limbs[li].grip.point;
+        let travel = self.travel();
+        let body_fwd = self.body_rot * Vec3::Z;
+        // Step length (along the travel direction) within [min, max].
+        let step = (approx - cur).dot(travel);
+        let dist = approx.distance(cur);
+        if step < w.cfg.min_step_m || dist > w.cfg.max_step_m {
+            return None;
+        }
+        // Leg order: hind never ahead of a fore limb; never behind the opposite limb of the girdle.
+        let proj = |p: Vec3| p.dot(body_fwd);
+        let fore_min = proj(self.limbs[Limb::LF.index()].grip.point).min(proj(self.limbs[Limb::RF.index()].grip.point));
+        if !limb.is_fore() && proj(approx) > fore_min - 0.05 {
+            return None;
+        }
+        let opp = self.limbs[limb.opposite().index()].grip.point;
+        if (approx - opp).dot(travel) < 0.0 {
+            return None;
+        }
+        let mut grips = self.limbs.map(|l| l.grip.point);
+        grips[li] = approx;
+        if !self.stance_reachable(w, &grips) {
+            return None;
+        }
+        let origin = a.point + out * (a.radius + TRACE_STANDOFF);
+        let req = TraceRequest::Line(LineTrace { origin, dir: -out, max_dist: TRACE_STANDOFF + a.radius });
+        Some((req, Candidate { limb: li as u8, support: sid, u, sdir, out }))
+    }
+
+    // ---------------------------------------------------------------- stage 3
+
+    /// BodyAverage: advance swing arcs, then place the body (formulas 6, 7), smoothed.
+    pub fn body_average(&mut self, w: &World<'_>, dt: f32) {
+        for (li, l) in self.limbs.iter_mut().enumerate() {
+            match l.phase {
+                LimbPhase::Planted | LimbPhase::Searching => l.target = l.grip.point,
+                LimbPhase::Swinging => {
+                    let dur = w.cfg.swing_duration(Limb::ALL[li]);
+                    l.swing_t = (l.swing_t + dt / dur).min(1.0);
+                    let s = smoothstep(l.swing_t);
+                    let n = (l.from_normal + l.grip.normal).normalize_or(self.body_rot * Vec3::NEG_Y);
+                    let lift = w.cfg.swing_clearance_m * (std::f32::consts::PI * l.swing_t).sin();
+                    l.target = l.from.lerp(l.grip.point, s) + n * lift;
+                    if l.swing_t >= 1.0 {
+                        l.phase = LimbPhase::Planted;
+                        l.target = l.grip.point;
+                    }
+                }
+            }
+        }
+        let (pos, rot) = self.averaged_body(w);
+        let k = if w.cfg.body_smoothing_s > 0.0 { 1.0 - (-dt / w.cfg.body_smoothing_s).exp() } else { 1.0 };
+        self.body_pos = self.body_pos.lerp(pos, k);
+        self.body_rot = self.body_rot.slerp(rot, k).normalize();
+    }
+
+    // ---------------------------------------------------------------- stage 4
+
+    /// CcdSolve: each limb from its root toward its target.
+    pub fn solve_limbs(&mut self, w: &World<'_>) -> u32 {
+        self.solve_limbs_with(w, w.ccd)
+    }
+
+    fn solve_limbs_with(&mut self, w: &World<'_>, params: &CcdParams) -> u32 {
+        let mut iterations = 0;
+        for li in 0..4 {
+            let root = w.rig.root_ws(li, self.body_pos, self.body_rot);
+            let l = &mut self.limbs[li];
+            let r = slothsim_rig::solve(&w.rig.chains[li], root, l.target, &mut l.pose, params);
+            iterations += r.iterations;
+            l.root = root.position.into();
+            l.effector = w.rig.chains[li].fk(root, &l.pose)[4];
+        }
+        iterations
+    }
+
+    // ---------------------------------------------------------------- stage 5
+
+    /// Transitions: gait clock and footfall order, goal check. Limbs whose
+    /// turn has come start searching (their first traces go into `batch`).
+    pub fn transitions(&mut self, w: &World<'_>, dt: f32, batch: &mut TraceBatch) {
+        self.time += dt;
+        if let Some((gs, gp)) = self.goal {
+            let s = w.scene().support(gs);
+            let a = project(s, self.body_pos);
+            if a.point.distance(gp) <= self.goal_tolerance && a.point.distance(self.body_pos) < 0.6 {
+                self.status = Status::Arrived;
+            }
+        }
+        if self.status != Status::Moving {
+            return;
+        }
+        let prev = self.clock;
+        self.clock = (self.clock + dt / w.cfg.cycle_duration()).fract();
+        let offsets = w.cfg.phase_offsets();
+        for (li, &off) in offsets.iter().enumerate() {
+            let crossed = if self.clock >= prev { off > prev && off <= self.clock } else { off > prev || off <= self.clock };
+            if crossed {
+                self.limbs[li].due = true;
+            }
+        }
+        for li in 0..4 {
+            let planted = self.limbs.iter().filter(|l| l.phase != LimbPhase::Swinging).count();
+            let l = self.limbs[li];
+            if !l.due || l.phase != LimbPhase::Planted || planted < 3 {
+                continue;
+            }
+            self.limbs[li].due = false;
+            self.limbs[li].phase = LimbPhase::Searching;
+            let g = l.grip;
+            self.limbs[li].search = Search {
+                support: g.support,
+                sdir: g.sdir,
+                next_u: g.u + g.sdir * w.cfg.search_distance_m,
+                last_u: g.u,
+                neighbour: u16::MAX,
+                traced: 0,
+            };
+            self.queue_candidates(w, li, batch);
+        }
+    }
+
+    // ---------------------------------------------------------------- judge
+
+    /// What the judge and the statistics see this frame.
+    pub fn observe(&self, w: &World<'_>) -> SlothObservation {
+        let scene = w.scene();
+        let limbs: [LimbObservation; 4] = std::array::from_fn(|li| {
+            let l = &self.limbs[li];
+            let s = scene.support(l.grip.support);
+            let a = project(s, l.effector);
+            LimbObservation {
+                planted: l.phase != LimbPhase::Swinging,
+                grip_ws: l.grip.point,
+                effector_ws: l.effector,
+                root_ws: l.root,
+                limb_length: w.rig.chains[li].reach(),
+                surface_gap: (a.point.distance(l.effector) - a.radius).abs(),
+                limit_violation: w.rig.chains[li].limit_violation(&l.pose),
+                support: l.grip.support,
+            }
+        });
+        let to_ws = |p: Vec3| self.body_pos + self.body_rot * p;
+        let head = to_ws(w.rig.head_ms);
+        let hips = to_ws(w.rig.hips_ms);
+        let torso = [to_ws(w.rig.torso_ms[0]), to_ws(w.rig.torso_ms[1])];
+        let fore = scene.support(self.limbs[Limb::LF.index()].grip.support);
+        let on_trunk = fore.kind == SupportKind::Trunk && self.limbs[Limb::RF.index()].grip.support == fore.id;
+        let mut penetration: f32 = 0.0;
+        let mut seen = [SupportId(u32::MAX); 4];
+        for (k, l) in self.limbs.iter().enumerate() {
+            let sid = l.grip.support;
+            if seen.contains(&sid) {
+                continue;
+            }
+            seen[k] = sid;
+            for &id in std::iter::once(&sid).chain(w.adjacency.neighbours(sid)) {
+                penetration = penetration.max(torso_penetration(scene.support(id), torso));
+            }
+        }
+        let goal_distance_m = match self.goal {
+            Some((gs, gp)) => {
+                let a = project(scene.support(gs), self.body_pos);
+                if a.point.distance(self.body_pos) < 0.6 { a.point.distance(gp) } else { self.body_pos.distance(gp) }
+            }
+            None => f32::INFINITY,
+        };
+        let has_nan = !(self.body_pos.is_finite() && self.body_rot.is_finite() && self.limbs.iter().all(|l| l.pose.is_finite() && l.target.is_finite()));
+        SlothObservation {
+            time_s: self.time,
+            body_pos: self.body_pos,
+            body_rot: self.body_rot,
+            head_ws: head,
+            hips_ws: hips,
+            on_trunk,
+            limbs,
+            penetration_m: penetration,
+            goal_distance_m: if goal_distance_m.is_finite() { goal_distance_m } else { f32::MAX },
+            has_nan,
+        }
+    }
+}
+
+/// Depth by which the torso capsule (radius [`BODY_RADIUS`]) enters a support.
+fn torso_penetration(s: &slothsim_scene::Support, torso: [Vec3; 2]) -> f32 {
+    let mut depth: f32 = 0.0;
+    for (i, w) in s.nodes.windows(2).enumerate() {
+        let (d, t) = segment_distance(torso[0], torso[1], w[0], w[1]);
+        let r = s.radii[i] + (s.radii[i + 1] - s.radii[i]) * t;
+        depth = depth.max(BODY_RADIUS + r - d);
+    }
+    depth
+}
+
+/// Distance between segments p0–p1 and q0–q1, and the parameter on q.
+fn segment_distance(p0: Vec3, p1: Vec3, q0: Vec3, q1: Vec3) -> (f32, f32) {
+    let d1 = p1 - p0;
+    let d2 = q1 - q0;
+    let r = p0 - q0;
+    let a = d1.dot(d1);
+    let e = d2.dot(d2);
+    let f = d2.dot(r);
+    let (s, t);
+    if a <= 1e-12 && e <= 1e-12 {
+        return (p0.distance(q0), 0.0);
+    }
+    if a <= 1e-12 {
+        s = 0.0;
+        t = (f / e).clamp(0.0, 1.0);
+    } else {
+        let c = d1.dot(r);
+        if e <= 1e-12 {
+            t = 0.0;
+            s = (-c / a).clamp(0.0, 1.0);
+        } else {
+            let b = d1.dot(d2);
+            let denom = a * e - b * b;
+            let mut s0 = if denom > 1e-12 { ((b * f - c * e) / denom).clamp(0.0, 1.0) } else { 0.0 };
+            let mut t0 = (b * s0 + f) / e;
+            if t0 < 0.0 {
+                t0 = 0.0;
+                s0 = (-c / a).clamp(0.0, 1.0);
+            } else if t0 > 1.0 {
+                t0 = 1.0;
+                s0 = ((b - c) / a).clamp(0.0, 1.0);
+            }
+            s = s0;
+            t = t0;
+        }
+    }
+    ((p0 + d1 * s).distance(q0 + d2 * t), t)
+}

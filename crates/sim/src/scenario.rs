@@ -1,0 +1,142 @@
+//! One sloth on a thesis scenario preset, judged: the runner behind
+//! `slothsim scenario` and `slothsim matrix`.
+
+use bevy_ecs::prelude::*;
+use glam::Vec3;
+use serde::Serialize;
+use slothsim_gait::{
+    GaitReport, GaitStats, Judge, JudgeReport, LocomotionConfig, SlothObservation, SpawnHint,
+    Status, Tolerances, Verdict,
+};
+use slothsim_rig::Rig;
+use slothsim_scene::{Preset, PresetKind, TraceScene};
+
+use crate::world::{Locomotion, SlothState, new_world, spawn_sloth};
+
+/// Which way a scenario is run (only the trunk preset has variants).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum TrunkVariant {
+    /// Climb up the trunk.
+    Up,
+    /// Climb down, head up.
+    Down,
+}
+
+/// What to run.
+#[derive(Clone, Debug)]
+pub struct ScenarioSpec {
+    /// The preset (scene, start, goal).
+    pub preset: Preset,
+    /// Trunk variant (trunk preset only).
+    pub variant: TrunkVariant,
+    /// Locomotion parameters.
+    pub cfg: LocomotionConfig,
+    /// Fixed time step.
+    pub dt: f32,
+    /// Give up after this long (s); `None` = from the path length.
+    pub time_limit_s: Option<f32>,
+    /// Judge tolerances.
+    pub tolerances: Tolerances,
+}
+
+/// The outcome of a scenario run.
+#[derive(Clone, Debug, Serialize)]
+pub struct ScenarioResult {
+    /// Preset name.
+    pub scenario: String,
+    /// Parameter value (degrees or metres).
+    pub parameter: Option<f32>,
+    /// Trunk variant.
+    pub variant: Option<TrunkVariant>,
+    /// Pass/fail with the failing measures.
+    pub verdict: Verdict,
+    /// Final status of the sloth.
+    pub status: Status,
+    /// The judge's measures.
+    pub judge: JudgeReport,
+    /// Gait statistics.
+    pub gait: GaitReport,
+    /// Time limit used.
+    pub time_limit_s: f32,
+    /// Frames simulated.
+    pub frames: u64,
+    /// Body positions over time (every 0.5 s), for plots and logs.
+    #[serde(skip)]
+    pub trail: Vec<Vec3>,
+    /// Every frame's observation (for plots).
+    #[serde(skip)]
+    pub observations: Vec<SlothObservation>,
+}
+
+/// Runs one scenario to the goal, a stop, or the time limit.
+pub fn run_scenario(spec: &ScenarioSpec, rig: &Rig) -> Result<ScenarioResult, slothsim_gait::ConfigError> {
+    let preset = &spec.preset;
+    let mut start = preset.start;
+    let mut goal = preset.goal;
+    let variant = spec.variant;
+    if preset.kind == PresetKind::Trunk && variant == TrunkVariant::Down {
+        std::mem::swap(&mut start.position, &mut goal.point);
+        start.position.y -= 0.5;
+        goal.point.y += 0.5;
+        start.forward = -start.forward;
+    }
+    let path_len = start.position.distance(goal.point) + 1.0;
+    let time_limit_s = spec.time_limit_s.unwrap_or(30.0 + path_len / 0.03);
+    let loco = Locomotion::new(spec.cfg.clone(), rig, TraceScene::new(preset.scene.clone()))?;
+    let mut world = new_world(loco, spec.dt);
+    let hint = SpawnHint {
+        support: start.support,
+        position: start.position,
+        forward: start.forward,
+        body_side: start.body_side,
+    };
+    spawn_sloth(&mut world, 0, &hint, Some((goal.support, goal.point, goal.tolerance)));
+    let mut schedule = crate::build_schedule();
+    let mut judge = Judge::new(Tolerances { goal_tolerance_m: goal.tolerance, ..spec.tolerances }, time_limit_s);
+    let mut stats = GaitStats::new();
+    let mut trail = Vec::new();
+    let mut observations = Vec::new();
+    let frames_max = (time_limit_s / spec.dt).ceil() as u64;
+    let mut status = Status::Moving;
+    let mut frames = 0;
+    let mut sloths = world.query::<&SlothState>();
+    let mut after_stop = 0;
+    while frames < frames_max {
+        schedule.run(&mut world);
+        frames += 1;
+        let loco = world.resource::<Locomotion>();
+        let w = loco.view();
+        let s = &sloths.single(&world).expect("one sloth").0;
+        let obs = s.observe(&w);
+        judge.observe(&obs);
+        stats.observe(&obs);
+        if frames % ((0.5 / spec.dt).round() as u64).max(1) == 0 {
+            trail.push(obs.body_pos);
+        }
+        observations.push(obs);
+        status = s.status;
+        if status != Status::Moving {
+            // Let the last swing settle, then stop.
+            after_stop += 1;
+            if after_stop as f32 * spec.dt > 1.0 {
+                break;
+            }
+        }
+    }
+    let report = judge.finish();
+    let verdict = report.verdict(judge.tolerances());
+    Ok(ScenarioResult {
+        scenario: preset.kind.name().to_string(),
+        parameter: preset.parameter,
+        variant: (preset.kind == PresetKind::Trunk).then_some(variant),
+        verdict,
+        status,
+        judge: report,
+        gait: stats.finish(),
+        time_limit_s,
+        frames,
+        trail,
+        observations,
+    })
+}

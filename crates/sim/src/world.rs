@@ -1,0 +1,85 @@
+//! Components, resources and world construction.
+
+use bevy_ecs::prelude::*;
+use slothsim_gait::{Adjacency, LocomotionConfig, RigData, Sloth, SpawnHint, TraceBatch, World as LocoWorld};
+use slothsim_rig::{CcdParams, Rig};
+use slothsim_scene::{SupportId, TraceScene};
+
+/// Stable sloth id (spawn order); reductions iterate in this order.
+#[derive(Component, Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub struct SlothId(pub u32);
+
+/// A sloth's locomotion state.
+#[derive(Component, Clone, Debug)]
+pub struct SlothState(pub Sloth);
+
+/// A sloth's trace requests and results (filled by the Trace stage).
+#[derive(Component, Clone, Debug, Default)]
+pub struct Traces(pub TraceBatch);
+
+/// Everything read-only the kernels share: config, rig, forest BVH, adjacency.
+#[derive(Resource)]
+pub struct Locomotion {
+    /// Parameters (validated).
+    pub cfg: LocomotionConfig,
+    /// Rig data.
+    pub rig: RigData,
+    /// Body offset (formula 7), resolved.
+    pub body_offset: f32,
+    /// The forest with its BVH.
+    pub traces: TraceScene,
+    /// Support adjacency.
+    pub adjacency: Adjacency,
+    /// IK parameters.
+    pub ccd: CcdParams,
+}
+
+impl Locomotion {
+    /// Validates `cfg` against the rig and builds the shared data.
+    pub fn new(cfg: LocomotionConfig, rig: &Rig, traces: TraceScene) -> Result<Self, slothsim_gait::ConfigError> {
+        let rig = RigData::new(rig);
+        cfg.validate(rig.reach)?;
+        let body_offset = cfg.body_vertical_offset_m.unwrap_or_else(|| rig.auto_body_offset());
+        let adjacency = Adjacency::build(traces.query(), 0.05);
+        Ok(Locomotion { cfg, rig, body_offset, traces, adjacency, ccd: CcdParams::default() })
+    }
+
+    /// The kernels' view.
+    pub fn view(&self) -> LocoWorld<'_> {
+        LocoWorld {
+            cfg: &self.cfg,
+            rig: &self.rig,
+            body_offset: self.body_offset,
+            query: self.traces.query(),
+            adjacency: &self.adjacency,
+            ccd: &self.ccd,
+        }
+    }
+}
+
+/// Fixed time step and frame counter.
+#[derive(Resource, Clone, Copy, Debug)]
+pub struct SimClock {
+    /// Time step (s).
+    pub dt: f32,
+    /// Frames simulated.
+    pub frame: u64,
+}
+
+/// A world holding the shared resources, ready for sloths.
+pub fn new_world(loco: Locomotion, dt: f32) -> World {
+    let mut world = World::new();
+    world.insert_resource(loco);
+    world.insert_resource(SimClock { dt, frame: 0 });
+    world.insert_resource(crate::StageTimings::default());
+    world
+}
+
+/// Spawns one sloth (its limbs gripping around `hint`).
+pub fn spawn_sloth(world: &mut World, id: u32, hint: &SpawnHint, goal: Option<(SupportId, glam::Vec3, f32)>) -> Entity {
+    let sloth = {
+        let loco = world.resource::<Locomotion>();
+        Sloth::spawn(&loco.view(), hint, goal)
+    };
+    world.spawn((SlothId(id), SlothState(sloth), Traces::default())).id()
+}

@@ -1,0 +1,157 @@
+//! `slothsim scenario` and `slothsim matrix`: one sloth on thesis presets, judged.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result, bail};
+use clap::{Args, ValueEnum};
+use slothsim::gait::{LocomotionConfig, Profile, Tolerances};
+use slothsim::rig::Rig;
+use slothsim::scene::{Preset, PresetKind};
+use slothsim::sim::{ScenarioResult, ScenarioSpec, TrunkVariant, run_scenario};
+
+/// Gait profile names on the command line.
+#[derive(Clone, Copy, Debug, ValueEnum)]
+pub enum ProfileArg {
+    /// The thesis model (0.11 m/s).
+    Free,
+    /// SPEC Table 1 steady state.
+    Steady,
+}
+
+/// Trunk scenario variant.
+#[derive(Clone, Copy, Debug, ValueEnum)]
+pub enum VariantArg {
+    /// Climb up.
+    Up,
+    /// Climb down, head up.
+    Down,
+}
+
+#[derive(Args)]
+pub struct ScenarioArgs {
+    /// turn, parallel, trunk, height_change, branch_trunk, pole.
+    name: String,
+    /// Preset angle in degrees (turn, height_change, branch_trunk).
+    #[arg(long, allow_hyphen_values = true)]
+    angle: Option<f32>,
+    /// Preset parameter in metres (parallel: gap; trunk: radius).
+    #[arg(long, allow_hyphen_values = true)]
+    param: Option<f32>,
+    /// Gait profile.
+    #[arg(long, value_enum, default_value = "free")]
+    profile: ProfileArg,
+    /// Trunk scenario variant.
+    #[arg(long, value_enum, default_value = "up")]
+    variant: VariantArg,
+    /// Locomotion config (TOML); overrides the profile's defaults.
+    #[arg(long, value_name = "FILE")]
+    config: Option<PathBuf>,
+    /// Fixed time step (s).
+    #[arg(long, default_value_t = 1.0 / 60.0)]
+    dt: f32,
+    /// Give up after this many simulated seconds (default: from the path length).
+    #[arg(long)]
+    seconds: Option<f32>,
+    /// Output folder for scenario.json.
+    #[arg(long)]
+    out: Option<PathBuf>,
+}
+
+/// The locomotion config: profile defaults, overridden by a TOML file.
+pub fn load_config(profile: ProfileArg, file: Option<&Path>) -> Result<LocomotionConfig> {
+    let profile = match profile {
+        ProfileArg::Free => Profile::Free,
+        ProfileArg::Steady => Profile::Steady,
+    };
+    match file {
+        None => Ok(LocomotionConfig::profile(profile)),
+        Some(path) => {
+            let text = std::fs::read_to_string(path)
+                .with_context(|| format!("cannot read config {}", path.display()))?;
+            let mut text = text;
+            if !text.contains("profile") {
+                text = format!("profile = \"{}\"\n{text}", match profile {
+                    Profile::Free => "free",
+                    Profile::Steady => "steady",
+                });
+            }
+            LocomotionConfig::from_toml(&text)
+                .map_err(|e| anyhow::anyhow!("invalid config {}: {e}", path.display()))
+        }
+    }
+}
+
+fn preset_value(kind: PresetKind, angle: Option<f32>, param: Option<f32>) -> Result<Option<f32>> {
+    Ok(match (kind.parameter(), angle, param) {
+        (_, Some(_), Some(_)) => bail!("give either --angle or --param, not both"),
+        (Some((name, unit, ..)), Some(_), None) if unit != "deg" => {
+            bail!("preset `{}` takes --param ({name} in {unit}), not --angle", kind.name())
+        }
+        (Some((name, "deg", ..)), None, Some(_)) => {
+            bail!("preset `{}` takes --angle ({name} in degrees), not --param", kind.name())
+        }
+        (_, a, p) => a.or(p),
+    })
+}
+
+/// Writes `value` as pretty JSON to `dir/name`, through a temporary file.
+pub fn write_json(dir: &Path, name: &str, value: &impl serde::Serialize) -> Result<PathBuf> {
+    std::fs::create_dir_all(dir).with_context(|| format!("cannot create output folder {}", dir.display()))?;
+    let path = dir.join(name);
+    let tmp = dir.join(format!(".{name}.tmp"));
+    let text = serde_json::to_string_pretty(value)?;
+    std::fs::write(&tmp, text).with_context(|| format!("cannot write {}", tmp.display()))?;
+    std::fs::rename(&tmp, &path).with_context(|| format!("cannot write {}", path.display()))?;
+    Ok(path)
+}
+
+fn print_result(r: &ScenarioResult) {
+    let j = &r.judge;
+    let p = r.parameter.map_or(String::new(), |v| format!(" {v}"));
+    let v = r.variant.map_or(String::new(), |v| format!(" ({v:?})").to_lowercase());
+    println!("scenario {}{p}{v}: {}", r.scenario, if r.verdict.pass { "PASS" } else { "FAIL" });
+    println!("  status {:?}, goal reached {} at {:?} s (limit {:.0} s)", r.status, j.goal_reached, j.goal_time_s, r.time_limit_s);
+    println!(
+        "  slip {:.4} m, gap {:.4} m, reach ratio {:.3}, limit violations {}, min contact {}, penetration {:.4} m, head-below-hips {}, NaN {}",
+        j.max_grip_slip_m, j.max_surface_gap_m, j.max_reach_ratio, j.joint_limit_violations,
+        j.min_limbs_in_contact, j.max_penetration_m, j.head_below_hips_on_trunk_frames, j.nan_count
+    );
+    println!("  speed {:.3} m/s, footfall order {:?}", r.gait.speed_mps_mean, r.gait.footfall_order.iter().take(8).collect::<Vec<_>>());
+    for f in &r.verdict.failures {
+        println!("  failed: {f}");
+    }
+}
+
+/// `slothsim scenario`: exit code 0 pass, 1 fail.
+pub fn scenario(args: ScenarioArgs) -> Result<bool> {
+    let kind = PresetKind::parse(&args.name)?;
+    let value = preset_value(kind, args.angle, args.param)?;
+    let preset = Preset::new(kind, value)?;
+    if !(args.dt.is_finite() && args.dt > 0.0 && args.dt <= 0.1) {
+        bail!("--dt {} is outside the allowed range (0, 0.1] s", args.dt);
+    }
+    if let Some(s) = args.seconds
+        && !(s.is_finite() && s > 0.0)
+    {
+        bail!("--seconds {s} must be a positive duration");
+    }
+    let cfg = load_config(args.profile, args.config.as_deref())?;
+    let spec = ScenarioSpec {
+        preset,
+        variant: match args.variant {
+            VariantArg::Up => TrunkVariant::Up,
+            VariantArg::Down => TrunkVariant::Down,
+        },
+        cfg,
+        dt: args.dt,
+        time_limit_s: args.seconds,
+        tolerances: Tolerances::default(),
+    };
+    let result = run_scenario(&spec, &Rig::sloth())?;
+    print_result(&result);
+    if let Some(dir) = &args.out {
+        let path = write_json(dir, "scenario.json", &result)?;
+        println!("wrote {}", path.display());
+    }
+    Ok(result.verdict.pass)
+}
