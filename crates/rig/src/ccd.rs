@@ -22,7 +22,8 @@
 use glam::{Quat, Vec3, Vec3A};
 
 use crate::chain::{CHAIN_JOINTS, ChainPose, LimbChain, RootTransform};
-use crate::limits::{JointLimit, quat_axis_angle, twist_angle};
+use crate::limits::{JointLimit, clamp_hinge_half, half_sin_cos, hinge_half, hinge_quat};
+use crate::refine;
 
 /// Joint visiting order inside one CCD sweep.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
@@ -51,6 +52,9 @@ pub struct CcdParams {
     /// effector is as far from the proximal ball joint as the target is (the proximal
     /// joint then only has to aim). Much faster convergence near full extension.
     pub reach_step: bool,
+    /// When the sweeps stall short of a target within reach, polish with a limit-aware
+    /// damped-least-squares stage (all joints at once; see README). Default on.
+    pub refine: bool,
 }
 
 impl Default for CcdParams {
@@ -62,6 +66,7 @@ impl Default for CcdParams {
             min_improvement: 1e-5,
             order: CcdOrder::TailFirst,
             reach_step: true,
+            refine: true,
         }
     }
 }
@@ -154,21 +159,23 @@ impl CcdResult {
 struct Frames {
     /// Joint positions 0..3 and effector (4).
     pos: [Vec3A; 5],
-    /// Joint rotations (root-relative), pose included.
+    /// Joint rotations (root-relative), pose included: `base[i] * pose[i]`.
     rot: [Quat; CHAIN_JOINTS],
-    /// The last mid-joint reach step could not set the wanted distance (limit hit).
-    mid_saturated: bool,
+    /// Joint rest frames (root-relative), pose excluded: `rot[i-1] * rest[i]`.
+    base: [Quat; CHAIN_JOINTS],
 }
 
 impl Frames {
     #[inline]
     fn new(chain: &LimbChain, pose: &ChainPose) -> Self {
-        let (pos, rot) = chain.fk_local(pose);
-        Self {
-            pos,
-            rot,
-            mid_saturated: false,
-        }
+        let mut f = Frames {
+            pos: [Vec3A::ZERO; 5],
+            rot: [Quat::IDENTITY; CHAIN_JOINTS],
+            base: [Quat::IDENTITY; CHAIN_JOINTS],
+        };
+        f.pos[0] = chain.offsets[0];
+        f.update_from(chain, pose, 0);
+        f
     }
 
     /// Recompute joint `j`'s rotation and everything below it after `pose[j]` changed.
@@ -183,7 +190,8 @@ impl Frames {
             if i > j {
                 self.pos[i] = self.pos[i - 1] + parent_rot * chain.offsets[i];
             }
-            self.rot[i] = parent_rot * chain.rest[i] * pose.0[i];
+            self.base[i] = parent_rot * chain.rest[i];
+            self.rot[i] = self.base[i] * pose.0[i];
             parent_rot = self.rot[i];
         }
         self.pos[4] = self.pos[3] + parent_rot * chain.effector;
@@ -218,53 +226,153 @@ pub fn solve(
 }
 
 /// [`solve`] with the target already in the chain-root frame and params already
-/// validated (no checks).
+/// validated (no checks): CCD sweeps, then the smoothness guard.
+///
+/// Smoothness guard: near full extension of the elbow/knee the reach step puts all of
+/// a small radial target move on that one hinge (0.18 rad for 5 mm at a 14° bend). When
+/// a warm start (target within [`SMOOTH_TRIGGER_DIST`] of the effector) moved some joint
+/// by more than [`SMOOTH_JOINT_STEP`], the solve is redone from the warm start by the
+/// damped least squares of [`refine`], whose minimum-norm steps spread the move over all
+/// joints; its pose is kept if it reaches and moves the joints less.
+#[inline]
 fn solve_local(
     chain: &LimbChain,
     target: Vec3A,
     pose: &mut ChainPose,
     params: &CcdParams,
 ) -> CcdResult {
+    let start = *pose;
+    let (result, start_err) = ccd_sweeps(chain, target, pose, params);
+    if result.iterations == 0
+        || !params.refine
+        || start_err > SMOOTH_TRIGGER_DIST
+        || max_joint_cos_half(&start, pose) >= SMOOTH_COS_HALF
+    {
+        return result;
+    }
+    smooth_retry(chain, target, &start, pose, params, result)
+}
+
+/// Target moves up to this far (metres) count as frame-to-frame tracking.
+pub const SMOOTH_TRIGGER_DIST: f32 = 0.02;
+/// Joint change per solve (radians) above which a tracking solve is redone smoothly.
+pub const SMOOTH_JOINT_STEP: f32 = 0.1;
+/// `cos(SMOOTH_JOINT_STEP / 2)`.
+const SMOOTH_COS_HALF: f32 = 0.998_750_26;
+
+/// Smallest `|a_i · b_i|` over the joints: the cosine of half the largest joint change.
+#[inline]
+fn max_joint_cos_half(a: &ChainPose, b: &ChainPose) -> f32 {
+    (0..CHAIN_JOINTS)
+        .map(|i| a.0[i].dot(b.0[i]).abs())
+        .fold(1.0, f32::min)
+}
+
+#[cold]
+fn smooth_retry(
+    chain: &LimbChain,
+    target: Vec3A,
+    start: &ChainPose,
+    pose: &mut ChainPose,
+    params: &CcdParams,
+    result: CcdResult,
+) -> CcdResult {
+    let mut alt = *start;
+    let r = refine::refine(
+        chain,
+        target,
+        &mut alt,
+        params.tolerance,
+        params.max_iterations,
+    );
+    if r.error <= params.tolerance.max(result.error)
+        && max_joint_cos_half(start, &alt) > max_joint_cos_half(start, pose)
+    {
+        *pose = alt;
+        return CcdResult {
+            reached: r.error <= params.tolerance,
+            error: r.error,
+            iterations: result.iterations + r.iterations,
+            status: if r.error <= params.tolerance {
+                CcdStatus::Reached
+            } else {
+                result.status
+            },
+        };
+    }
+    CcdResult {
+        iterations: result.iterations + r.iterations,
+        ..result
+    }
+}
+
+/// The CCD sweeps (and the stall polish). Returns the result and the starting error.
+///
+/// Tail-first sweeps update only the effector after each step: a step on joint `j`
+/// moves nothing above it, and the next step (joint `j-1`) needs only joint `j-1`'s own
+/// frame, joint 1's position and the effector. The full FK is redone once per sweep.
+#[inline]
+fn ccd_sweeps(
+    chain: &LimbChain,
+    target: Vec3A,
+    pose: &mut ChainPose,
+    params: &CcdParams,
+) -> (CcdResult, f32) {
     let mut frames = Frames::new(chain, pose);
     let tol_sq = params.tolerance * params.tolerance;
     let mut err_sq = frames.pos[4].distance_squared(target);
+    let start_err = err_sq.sqrt();
     if err_sq <= tol_sq {
-        return CcdResult {
+        let r = CcdResult {
             reached: true,
-            error: err_sq.sqrt(),
+            error: start_err,
             iterations: 0,
             status: CcdStatus::Reached,
         };
+        return (r, start_err);
     }
-    let (cos_cap, sin_half_cap, cos_half_cap) = {
-        let (s, c) = (0.5 * params.max_step_angle).sin_cos();
-        (params.max_step_angle.cos(), s, c)
-    };
-    let cap = StepCap {
-        max_angle: params.max_step_angle,
-        cos_cap,
-        sin_half_cap,
-        cos_half_cap,
-    };
-    let mut prev_err = err_sq.sqrt();
+    let cap = StepCap::new(params.max_step_angle);
+    let tail_first = params.order == CcdOrder::TailFirst;
+    let mut prev_err = start_err;
     let mut reach_step = params.reach_step;
+    let mut frames_stale = false;
+    let mut mid_saturated = false;
     for iter in 0..params.max_iterations {
+        if frames_stale {
+            frames = Frames::new(chain, pose);
+            frames_stale = false;
+        }
         let sweep_start = *pose;
         for k in 0..CHAIN_JOINTS {
-            let j = match params.order {
-                CcdOrder::TailFirst => CHAIN_JOINTS - 1 - k,
-                CcdOrder::RootFirst => k,
+            let j = if tail_first { CHAIN_JOINTS - 1 - k } else { k };
+            let Some((q, eff_ls)) = step_joint(
+                chain,
+                &frames,
+                pose.0[j],
+                j,
+                target,
+                &cap,
+                reach_step,
+                &mut mid_saturated,
+            ) else {
+                continue;
             };
-            if step_joint(chain, &mut frames, pose, j, target, &cap, reach_step) {
-                err_sq = frames.pos[4].distance_squared(target);
-                if err_sq <= tol_sq {
-                    return CcdResult {
-                        reached: true,
-                        error: err_sq.sqrt(),
-                        iterations: iter + 1,
-                        status: CcdStatus::Reached,
-                    };
-                }
+            pose.0[j] = q;
+            if tail_first {
+                frames.pos[4] = frames.pos[j] + (frames.base[j] * q) * eff_ls;
+                frames_stale = true;
+            } else {
+                frames.update_from(chain, pose, j);
+            }
+            err_sq = frames.pos[4].distance_squared(target);
+            if err_sq <= tol_sq {
+                let r = CcdResult {
+                    reached: true,
+                    error: err_sq.sqrt(),
+                    iterations: iter + 1,
+                    status: CcdStatus::Reached,
+                };
+                return (r, start_err);
             }
         }
         let err = err_sq.sqrt();
@@ -273,121 +381,174 @@ fn solve_local(
             // undo it, so an already-settled pose stays exactly where it was and
             // unreachable targets do not jitter from frame to frame.
             *pose = sweep_start;
+            frames_stale = true;
+            err_sq = prev_err * prev_err;
             if reach_step {
                 // Reach steps stopped helping (a limit blocks them): go on with plain
                 // aiming CCD from the same pose.
                 reach_step = false;
-                frames = Frames::new(chain, pose);
-                err_sq = prev_err * prev_err;
                 continue;
             }
-            return CcdResult {
-                reached: false,
-                error: prev_err,
-                iterations: iter + 1,
-                status: CcdStatus::Stalled,
-            };
+            let r = polish(
+                chain,
+                target,
+                pose,
+                params,
+                prev_err,
+                iter + 1,
+                CcdStatus::Stalled,
+            );
+            return (r, start_err);
         }
         prev_err = err;
     }
-    CcdResult {
+    let err = err_sq.sqrt();
+    let r = polish(
+        chain,
+        target,
+        pose,
+        params,
+        err,
+        params.max_iterations,
+        CcdStatus::MaxIterations,
+    );
+    (r, start_err)
+}
+
+/// CCD stopped short of the target (`error` > tolerance): if the target is within the
+/// chain's reach, polish with the limit-aware damped least squares of [`refine`]
+/// (CCD gets trapped where several joints sit at limits at once). `status` is what to
+/// report if the polish does not reach either.
+#[cold]
+fn polish(
+    chain: &LimbChain,
+    target: Vec3A,
+    pose: &mut ChainPose,
+    params: &CcdParams,
+    error: f32,
+    iterations: u32,
+    status: CcdStatus,
+) -> CcdResult {
+    let mut result = CcdResult {
         reached: false,
-        error: err_sq.sqrt(),
-        iterations: params.max_iterations,
-        status: CcdStatus::MaxIterations,
+        error,
+        iterations,
+        status,
+    };
+    if !params.refine || target.distance(chain.offsets[0]) > chain.reach() + params.tolerance {
+        return result;
+    }
+    let r = refine::refine(chain, target, pose, params.tolerance, params.max_iterations);
+    result.iterations += r.iterations;
+    result.error = r.error;
+    if r.error <= params.tolerance {
+        result.reached = true;
+        result.status = CcdStatus::Reached;
+    }
+    result
+}
+
+/// The per-step rotation cap as cos (full angle) and cos/sin (half angle): no trig in the steps.
+struct StepCap {
+    cos: f32,
+    cos_half: f32,
+    sin_half: f32,
+}
+
+impl StepCap {
+    #[inline]
+    fn new(max_angle: f32) -> Self {
+        let (sin_half, cos_half) = half_sin_cos(max_angle);
+        Self {
+            cos: cos_half * cos_half - sin_half * sin_half,
+            cos_half,
+            sin_half,
+        }
+    }
+
+    /// Cap a rotation given as `(cos δ, sin δ)` (unit) at the step angle and return its
+    /// half-angle `(cos δ/2 ≥ 0, sin δ/2)`.
+    #[inline]
+    fn capped_half(&self, cos: f32, sin: f32) -> (f32, f32) {
+        if cos < self.cos {
+            return (self.cos_half, self.sin_half.copysign(sin));
+        }
+        let c = (0.5 * (1.0 + cos)).max(0.0).sqrt();
+        let s = (0.5 * (1.0 - cos)).max(0.0).sqrt().copysign(sin);
+        (c, s)
     }
 }
 
-struct StepCap {
-    max_angle: f32,
-    cos_cap: f32,
-    sin_half_cap: f32,
-    cos_half_cap: f32,
-}
-
-/// One CCD step on joint `j`. Returns whether the pose changed.
+/// One CCD step on joint `j` from the current `frames` (joint `j`'s frame, joint 1 and
+/// the effector must be up to date). Returns the new pose rotation of joint `j` and the
+/// effector in joint `j`'s (old) posed frame, or `None` when nothing changes.
+#[allow(clippy::too_many_arguments)]
 #[inline]
 fn step_joint(
     chain: &LimbChain,
-    frames: &mut Frames,
-    pose: &mut ChainPose,
+    frames: &Frames,
+    q: Quat,
     j: usize,
     target: Vec3A,
     cap: &StepCap,
     reach_step: bool,
-) -> bool {
+    mid_saturated: &mut bool,
+) -> Option<(Quat, Vec3A)> {
     let joint_pos = frames.pos[j];
-    if reach_step
-        && j == 0
-        && frames.mid_saturated
-        && matches!(chain.limits[0], JointLimit::Ball { .. })
-    {
+    let inv_rot = frames.rot[j].inverse();
+    // Effector and target in joint j's own (posed) frame.
+    let eff_ls = inv_rot * (frames.pos[4] - joint_pos);
+    let limit = chain.limits[j];
+    if reach_step && j == 0 && *mid_saturated && matches!(limit, JointLimit::Ball { .. }) {
         // Girdle reach: move the proximal joint (on its sphere about the girdle) to a
         // point as far from the target as the effector is from it now.
-        let inv_rot = frames.rot[0].inverse();
         let b_ls = inv_rot * (frames.pos[1] - joint_pos);
         let d_ls = inv_rot * (target - joint_pos);
         let s = (frames.pos[4] - frames.pos[1]).length();
-        return match ball_reach_step(b_ls, d_ls, s, cap.max_angle) {
-            Some(delta) => {
-                pose.0[0] = chain.limits[0].clamp(pose.0[0] * delta);
-                frames.update_from(chain, pose, 0);
-                true
-            }
-            None => false,
-        };
+        let delta = ball_reach_step(b_ls, d_ls, s, cap)?;
+        return Some((limit.clamp(q * delta), eff_ls));
     }
     if reach_step
         && j == 2
-        && let JointLimit::Hinge { axis, min, max } = chain.limits[j]
+        && let JointLimit::Hinge { axis, min, max } = limit
     {
-        let inv_rot = frames.rot[j].inverse();
-        let eff_ls = inv_rot * (frames.pos[4] - joint_pos);
         let ref_ls = inv_rot * (frames.pos[1] - joint_pos);
         let want = (target - frames.pos[1]).length();
-        let (step, saturated) = reach_hinge_step(
-            pose.0[j],
-            axis,
-            min,
-            max,
-            eff_ls,
-            ref_ls,
-            want,
-            cap.max_angle,
-        );
-        frames.mid_saturated = saturated;
-        return match step {
-            Some(q) => {
-                pose.0[j] = q;
-                frames.update_from(chain, pose, j);
-                true
-            }
-            None => false,
-        };
+        let (step, saturated) = reach_hinge_step(q, axis, min, max, eff_ls, ref_ls, want, cap);
+        *mid_saturated = saturated;
+        return step.map(|q| (q, eff_ls));
     }
-    let inv_rot = frames.rot[j].inverse();
-    // Effector and target directions in joint j's own (posed) frame.
-    let eff_ls = inv_rot * (frames.pos[4] - joint_pos);
     let target_ls = inv_rot * (target - joint_pos);
-    let new_q = match chain.limits[j] {
+    let new_q = match limit {
         JointLimit::Hinge { axis, min, max } => {
-            match hinge_step(pose.0[j], axis, min, max, eff_ls, target_ls, cap.max_angle) {
-                Some(q) => q,
-                None => return false,
-            }
+            hinge_step(q, axis, min, max, eff_ls, target_ls, cap)?
         }
-        limit => match arc_step(eff_ls, target_ls, cap) {
-            Some(delta) => limit.clamp(pose.0[j] * delta),
-            None => return false,
-        },
+        limit => limit.clamp(q * arc_step(eff_ls, target_ls, cap)?),
     };
-    pose.0[j] = new_q;
-    frames.update_from(chain, pose, j);
-    true
+    Some((new_q, eff_ls))
+}
+
+/// Rotate the hinge half-angle `(w, p)` by a delta half-angle `(c, s)`, clamp into the
+/// limits; `None` if the result equals the current angle (pinned at a limit).
+#[inline]
+fn turn_hinge(
+    axis: Vec3A,
+    (w, p): (f32, f32),
+    (c, s): (f32, f32),
+    min: f32,
+    max: f32,
+) -> (Option<Quat>, bool) {
+    let (w1, p1) = (w * c - p * s, w * s + p * c);
+    let (w2, p2, clamped) = clamp_hinge_half(w1, p1, min, max);
+    if (w2 - w).abs() <= 1e-9 && (p2 - p).abs() <= 1e-9 {
+        return (None, clamped);
+    }
+    (Some(hinge_quat(axis, w2, p2)), clamped)
 }
 
 /// Hinge step: the best rotation about `axis` (which is the same vector in the posed
-/// and rest frames) bringing `eff_ls` toward `target_ls`, capped and clamped.
+/// and rest frames) bringing `eff_ls` toward `target_ls`, capped and clamped. Works on
+/// half-angle unit complex numbers: no trig.
 #[inline]
 fn hinge_step(
     q: Quat,
@@ -396,7 +557,7 @@ fn hinge_step(
     max: f32,
     eff_ls: Vec3A,
     target_ls: Vec3A,
-    max_angle: f32,
+    cap: &StepCap,
 ) -> Option<Quat> {
     let e = eff_ls - axis * axis.dot(eff_ls);
     let t = target_ls - axis * axis.dot(target_ls);
@@ -405,16 +566,11 @@ fn hinge_step(
     if ee < 1e-14 || tt < 1e-14 {
         return None;
     }
-    let delta = axis
-        .dot(e.cross(t))
-        .atan2(e.dot(t))
-        .clamp(-max_angle, max_angle);
-    let current = twist_angle(q, axis);
-    let wanted = (current + delta).clamp(min, max);
-    if wanted == current {
-        return None;
-    }
-    Some(quat_axis_angle(axis, wanted))
+    let inv = (ee * tt).sqrt().recip();
+    let cos = (e.dot(t) * inv).clamp(-1.0, 1.0);
+    let sin = axis.dot(e.cross(t)) * inv;
+    let half = cap.capped_half(cos, sin);
+    turn_hinge(axis, hinge_half(q, axis), half, min, max).0
 }
 
 /// Shortest-arc rotation taking direction `from` toward `to`, capped at the step angle.
@@ -434,20 +590,16 @@ fn arc_step(from: Vec3A, to: Vec3A, cap: &StepCap) -> Option<Quat> {
         return None;
     }
     let axis = axis * sin_len.sqrt().recip();
-    if cos < cap.cos_cap {
-        let v = axis * cap.sin_half_cap;
-        return Some(Quat::from_xyzw(v.x, v.y, v.z, cap.cos_half_cap));
-    }
-    // Half-angle formulas: no trig on the common (uncapped) path.
-    let cos_half = (0.5 * (1.0 + cos)).max(0.0).sqrt();
-    let sin_half = (0.5 * (1.0 - cos)).max(0.0).sqrt();
-    let v = axis * sin_half;
-    Some(Quat::from_xyzw(v.x, v.y, v.z, cos_half))
+    // Half-angle formulas: no trig.
+    let (c, s) = cap.capped_half(cos, 1.0);
+    let v = axis * s;
+    Some(Quat::from_xyzw(v.x, v.y, v.z, c))
 }
 
 /// Reach step for a hinge: the angle change about `axis` that makes the effector's
 /// distance to the reference point `ref_ls` (the proximal joint) equal `want`, nearest
-/// to the current angle, capped and clamped.
+/// to the current angle, capped and clamped. Returns the new rotation (if it changes)
+/// and whether the wanted distance could not be set (out of range or limit hit).
 #[allow(clippy::too_many_arguments)]
 #[inline]
 fn reach_hinge_step(
@@ -458,79 +610,83 @@ fn reach_hinge_step(
     eff_ls: Vec3A,
     ref_ls: Vec3A,
     want: f32,
-    max_angle: f32,
+    cap: &StepCap,
 ) -> (Option<Quat>, bool) {
     // |e(φ) − r|² = |e|² + |r|² − 2 (e_a·r_a + |e⊥||r⊥| cos(φ − φ0)), φ = rotation of e⊥.
     let ea = axis.dot(eff_ls);
     let ra = axis.dot(ref_ls);
     let e = eff_ls - axis * ea;
     let r = ref_ls - axis * ra;
-    let el = e.length();
-    let rl = r.length();
-    if el < 1e-7 || rl < 1e-7 {
+    let ee = e.length_squared();
+    let rr = r.length_squared();
+    if ee < 1e-14 || rr < 1e-14 {
         return (None, false);
     }
+    let elrl = (ee * rr).sqrt();
     let k = eff_ls.length_squared() + ref_ls.length_squared() - 2.0 * ea * ra;
     // want² = k − 2 el rl cos(ψ), ψ = angle from e⊥ to r⊥ after rotating e by δ
-    let cos_raw = (k - want * want) / (2.0 * el * rl);
+    let cos_raw = (k - want * want) / (2.0 * elrl);
     let cos_psi = cos_raw.clamp(-1.0, 1.0);
-    let psi = cos_psi.acos();
-    // current signed angle from e⊥ to r⊥ about axis
-    let cur = axis.dot(e.cross(r)).atan2(e.dot(r));
-    // rotating e by δ changes the angle to r by −δ: need cur − δ = ±psi
-    let current = twist_angle(q, axis);
-    // Of the two hinge angles giving that distance, prefer one inside the limits, then
-    // the smaller change.
-    let score = |d: f32| {
-        let a = current + d;
-        let outside = (min - a).max(a - max).max(0.0);
-        (outside, d.abs())
+    let sin_psi = (1.0 - cos_psi * cos_psi).max(0.0).sqrt();
+    // current signed angle `cur` from e⊥ to r⊥ about axis, as (cos, sin)
+    let inv = elrl.recip();
+    let (cc, sc) = (e.dot(r) * inv, axis.dot(e.cross(r)) * inv);
+    // rotating e by δ changes the angle to r by −δ: need cur − δ = ±ψ, δ = cur ∓ ψ
+    // (complex products give δ wrapped into (−π, π]).
+    let d1 = (cc * cos_psi + sc * sin_psi, sc * cos_psi - cc * sin_psi);
+    let d2 = (cc * cos_psi - sc * sin_psi, sc * cos_psi + cc * sin_psi);
+    let current = hinge_half(q, axis);
+    // Of the two hinge angles giving that distance, prefer one inside the limits (or the
+    // less outside, measured on sin θ/2), then the smaller change (larger cos δ).
+    let (s_min, _) = half_sin_cos(min);
+    let (s_max, _) = half_sin_cos(max);
+    let score = |(c, s): (f32, f32)| {
+        let (hc, hs) = (
+            (0.5 * (1.0 + c)).max(0.0).sqrt(),
+            (0.5 * (1.0 - c)).max(0.0).sqrt().copysign(s),
+        );
+        let (w1, p1) = (
+            current.0 * hc - current.1 * hs,
+            current.0 * hs + current.1 * hc,
+        );
+        let outside = if w1 < 0.0 {
+            2.0 + w1.abs()
+        } else {
+            (s_min - p1).max(p1 - s_max).max(0.0)
+        };
+        (outside, -c)
     };
-    let d1 = wrap(cur - psi);
-    let d2 = wrap(cur + psi);
-    let delta = if score(d1) <= score(d2) { d1 } else { d2 };
-    let delta = delta.clamp(-max_angle, max_angle);
-    let unclamped = current + delta;
-    let wanted = unclamped.clamp(min, max);
-    let saturated = cos_raw.abs() > 1.0 || wanted != unclamped;
-    if wanted == current {
-        return (None, saturated);
-    }
-    (Some(quat_axis_angle(axis, wanted)), saturated)
-}
-
-#[inline]
-fn wrap(a: f32) -> f32 {
-    use std::f32::consts::{PI, TAU};
-    if a > PI {
-        a - TAU
-    } else if a < -PI {
-        a + TAU
-    } else {
-        a
-    }
+    let (cos_d, sin_d) = if score(d1) <= score(d2) { d1 } else { d2 };
+    let (step, clamped) = turn_hinge(axis, current, cap.capped_half(cos_d, sin_d), min, max);
+    (step, cos_raw.abs() > 1.0 || clamped)
 }
 
 /// Reach step for the girdle ball joint: the smallest rotation of `b_ls` (proximal joint
 /// relative to the girdle) that puts its end at distance `s` from `d_ls` (the target),
 /// capped. `None` when nothing needs to (or can) change.
 #[inline]
-fn ball_reach_step(b_ls: Vec3A, d_ls: Vec3A, s: f32, max_angle: f32) -> Option<Quat> {
-    let l = b_ls.length();
-    let d = d_ls.length();
-    if l < 1e-7 || d < 1e-7 {
+fn ball_reach_step(b_ls: Vec3A, d_ls: Vec3A, s: f32, cap: &StepCap) -> Option<Quat> {
+    let ll = b_ls.length_squared();
+    let dd = d_ls.length_squared();
+    if ll < 1e-14 || dd < 1e-14 {
         return None;
     }
-    let cos_want = ((l * l + d * d - s * s) / (2.0 * l * d)).clamp(-1.0, 1.0);
+    let ld = (ll * dd).sqrt();
+    let cos_want = ((ll + dd - s * s) / (2.0 * ld)).clamp(-1.0, 1.0);
+    let sin_want = (1.0 - cos_want * cos_want).max(0.0).sqrt();
     let axis = b_ls.cross(d_ls);
     let axis_len = axis.length();
     if axis_len < 1e-9 {
         return None;
     }
-    let now = axis_len.atan2(b_ls.dot(d_ls));
-    let delta = (now - cos_want.acos()).clamp(-max_angle, max_angle);
-    if delta.abs() < 1e-7 {
+    // now = angle(b, d) ∈ [0, π]; δ = now − want
+    let (cos_now, sin_now) = (b_ls.dot(d_ls) / ld, axis_len / ld);
+    let cos_d = (cos_now * cos_want + sin_now * sin_want).clamp(-1.0, 1.0);
+    let sin_d = sin_now * cos_want - cos_now * sin_want;
+    if sin_d.abs() < 1e-7 && cos_d > 0.0 {
         return None;
     }
-    Some(quat_axis_angle(axis / axis_len, delta))
+    let (c, s) = cap.capped_half(cos_d, sin_d);
+    let v = axis * (s / axis_len);
+    Some(Quat::from_xyzw(v.x, v.y, v.z, c))
 }

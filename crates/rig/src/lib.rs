@@ -23,6 +23,7 @@ pub mod error;
 pub mod fabrik;
 pub mod limb;
 pub mod limits;
+mod refine;
 pub mod rig;
 pub mod skeleton;
 pub mod sloth;

@@ -132,8 +132,9 @@ impl JointLimit {
         match *self {
             JointLimit::Free => q,
             JointLimit::Hinge { axis, min, max } => {
-                let angle = twist_angle(q, axis).clamp(min, max);
-                quat_axis_angle(axis, angle)
+                let (w, p) = hinge_half(q, axis);
+                let (w, p, _) = clamp_hinge_half(w, p, min, max);
+                hinge_quat(axis, w, p)
             }
             JointLimit::Ball {
                 twist_axis,
@@ -208,7 +209,7 @@ fn canonical(q: Quat) -> Quat {
 }
 
 /// Signed twist angle of `q` about the unit `axis`, in `(-π, π]`.
-#[inline]
+#[cfg(test)]
 pub(crate) fn twist_angle(q: Quat, axis: Vec3A) -> f32 {
     let q = canonical(q);
     let p = Vec3A::new(q.x, q.y, q.z).dot(axis);
@@ -238,38 +239,102 @@ pub(crate) fn swing_twist_angles(q: Quat, axis: Vec3A) -> (f32, f32) {
     (swing, twist)
 }
 
+/// `(sin, cos)` of `angle / 2` for `|angle| ≤ π` by polynomial (Taylor to degree 11/12
+/// on `|x| ≤ π/2`: absolute error < 1e-7), inlined: no libm call in the solver.
+#[inline]
+pub(crate) fn half_sin_cos(angle: f32) -> (f32, f32) {
+    let x = 0.5 * angle;
+    let x2 = x * x;
+    let s = x
+        * (1.0
+            + x2 * (-1.0 / 6.0
+                + x2 * (1.0 / 120.0
+                    + x2 * (-1.0 / 5040.0 + x2 * (1.0 / 362_880.0 + x2 * (-1.0 / 39_916_800.0))))));
+    let c = 1.0
+        + x2 * (-0.5
+            + x2 * (1.0 / 24.0
+                + x2 * (-1.0 / 720.0
+                    + x2 * (1.0 / 40_320.0
+                        + x2 * (-1.0 / 3_628_800.0 + x2 * (1.0 / 479_001_600.0))))));
+    (s, c)
+}
+
+/// Hinge half-angle of `q` about the unit `axis` as a unit complex number
+/// `(cos θ/2, sin θ/2)` with `cos ≥ 0` (so `θ ∈ [-π, π]`); any off-axis part of `q` is
+/// dropped. A pure 180° off-axis rotation (no twist part) gives angle 0.
+#[inline]
+pub(crate) fn hinge_half(q: Quat, axis: Vec3A) -> (f32, f32) {
+    let p = Vec3A::new(q.x, q.y, q.z).dot(axis);
+    let (w, p) = if q.w < 0.0 { (-q.w, -p) } else { (q.w, p) };
+    let len_sq = w * w + p * p;
+    if len_sq < 1e-18 {
+        return (1.0, 0.0);
+    }
+    let inv = len_sq.sqrt().recip();
+    (w * inv, p * inv)
+}
+
+/// Clamp a hinge half-angle `(cos θ/2, sin θ/2)` into `θ ∈ [min, max]` without angles:
+/// with `cos θ/2 ≥ 0`, `sin θ/2` grows monotonically with θ. `cos θ/2 < 0` means
+/// `|θ| > π` (an unwrapped sum of angles), which is beyond either limit on its sign's
+/// side. Returns the clamped pair and whether it changed.
+#[inline]
+pub(crate) fn clamp_hinge_half(w: f32, p: f32, min: f32, max: f32) -> (f32, f32, bool) {
+    let (s_max, c_max) = half_sin_cos(max);
+    let (s_min, c_min) = half_sin_cos(min);
+    if w < 0.0 {
+        return if p >= 0.0 {
+            (c_max, s_max, true)
+        } else {
+            (c_min, s_min, true)
+        };
+    }
+    if p > s_max {
+        (c_max, s_max, true)
+    } else if p < s_min {
+        (c_min, s_min, true)
+    } else {
+        (w, p, false)
+    }
+}
+
+/// The hinge rotation with half-angle `(cos, sin) = (w, p)` about `axis`.
+#[inline]
+pub(crate) fn hinge_quat(axis: Vec3A, w: f32, p: f32) -> Quat {
+    let v = axis * p;
+    Quat::from_xyzw(v.x, v.y, v.z, w)
+}
+
+/// Swing–twist clamp with no trigonometry (limit half-angles by [`half_sin_cos`]):
+/// `q` is returned bit-identical when it is inside the limit.
 #[inline]
 fn clamp_ball(q: Quat, axis: Vec3A, swing_max: f32, twist_min: f32, twist_max: f32) -> Quat {
     let q = canonical(q);
     let v = Vec3A::new(q.x, q.y, q.z);
     let p = v.dot(axis);
     let twist_len_sq = p * p + q.w * q.w;
+    let (sin_half_swing, cos_half_swing) = half_sin_cos(swing_max);
     if twist_len_sq < 1e-18 {
         // Pure 180° swing: the twist is undefined; keep a zero twist and the limited swing.
-        let swing_axis = v.normalize_or_zero();
-        return quat_axis_angle(swing_axis, swing_max);
+        let sv = v.normalize_or_zero() * sin_half_swing;
+        return Quat::from_xyzw(sv.x, sv.y, sv.z, cos_half_swing);
     }
-    let inv_len = twist_len_sq.sqrt().recip();
-    // twist = (axis * p, w) / len, swing = q * conj(twist)
-    let tv = axis * (p * inv_len);
-    let tw = q.w * inv_len;
-    let mut twist = Quat::from_xyzw(tv.x, tv.y, tv.z, tw);
-    let mut swing = q * twist.conjugate();
-    let mut changed = false;
-    // swing.w = len ≥ 0, swing angle = 2 acos(len)
-    let half_max = 0.5 * swing_max;
-    if swing.w < half_max.cos() {
-        let (s, c) = half_max.sin_cos();
-        let sv = Vec3A::new(swing.x, swing.y, swing.z).normalize_or_zero() * s;
-        swing = Quat::from_xyzw(sv.x, sv.y, sv.z, c);
-        changed = true;
+    let len = twist_len_sq.sqrt();
+    let inv_len = len.recip();
+    // twist = (axis * p, w) / len (w ≥ 0, so its half-angle lies in [-π/2, π/2] and its
+    // sine p/len grows with the twist angle); swing = q * conj(twist) has scalar part len.
+    let (tw, tp) = (q.w * inv_len, p * inv_len);
+    let swing_over = len < cos_half_swing;
+    let (tw_c, tp_c, twist_over) = clamp_hinge_half(tw, tp, twist_min, twist_max);
+    if !swing_over && !twist_over {
+        return q;
     }
-    let twist_angle = 2.0 * (p * inv_len).atan2(tw);
-    if twist_angle < twist_min || twist_angle > twist_max {
-        twist = quat_axis_angle(axis, twist_angle.clamp(twist_min, twist_max));
-        changed = true;
+    let mut swing = q * hinge_quat(axis, tw, -tp);
+    if swing_over {
+        let sv = Vec3A::new(swing.x, swing.y, swing.z).normalize_or_zero() * sin_half_swing;
+        swing = Quat::from_xyzw(sv.x, sv.y, sv.z, cos_half_swing);
     }
-    if changed { swing * twist } else { q }
+    swing * hinge_quat(axis, tw_c, tp_c)
 }
 
 #[cfg(test)]

@@ -17,17 +17,10 @@ fn limb_strategy() -> impl Strategy<Value = Limb> {
     prop::sample::select(Limb::ALL.to_vec())
 }
 
-/// Sample-space point of a pose strictly inside the limits (5 % margin per range): a
-/// target that needs two joints pinned exactly at their limits at once (a workspace
-/// corner) is reached, but only after hundreds of sweeps (see README).
+/// Sample-space point of a within-limits pose over the *full* range of every joint
+/// (0 and 1 are the limits themselves: workspace corners included).
 fn unit12() -> impl Strategy<Value = [f32; 12]> {
-    prop::array::uniform12(0.05f32..=0.95)
-}
-
-/// Path end points for the tracking test: 10 % margin. Along a path that hugs two
-/// limits at once a warm-started solve can stall just above 1 mm (see README).
-fn unit12_inner() -> impl Strategy<Value = [f32; 12]> {
-    prop::array::uniform12(0.1f32..=0.9)
+    prop::array::uniform12(0.0f32..=1.0)
 }
 
 fn root_strategy() -> impl Strategy<Value = RootTransform> {
@@ -48,7 +41,8 @@ fn fk_error(chain: &LimbChain, root: RootTransform, pose: &ChainPose, target: Ve
 
 proptest! {
     #![proptest_config(ProptestConfig {
-        cases: 256,
+        // RIG_PROPTEST_CASES=4000 for a longer soak (passes; see README).
+        cases: std::env::var("RIG_PROPTEST_CASES").ok().and_then(|c| c.parse().ok()).unwrap_or(256),
         rng_seed: proptest::test_runner::RngSeed::Fixed(0x5107_4ee5),
         ..ProptestConfig::default()
     })]
@@ -119,13 +113,14 @@ proptest! {
         prop_assert!(d <= 2e-2, "poses differ by {d} rad");
     }
 
-    /// A target moving 1–6 mm per frame is tracked within tolerance by warm starts,
-    /// and the pose changes smoothly.
+    /// A target moving 1–6 mm per frame along a reachable path (FK of within-limits
+    /// poses, end points anywhere in the full ranges) is tracked within 1 mm on *every*
+    /// frame by warm starts, and no joint turns more than 0.15 rad per frame.
     #[test]
     fn warm_start_tracks_moving_target_smoothly(
         limb in limb_strategy(),
-        ua in unit12_inner(),
-        ub in unit12_inner(),
+        ua in unit12(),
+        ub in unit12(),
         step_mm in 1.0f32..6.0,
         root in root_strategy(),
     ) {
@@ -135,21 +130,14 @@ proptest! {
         let mut pose = ChainPose::NEUTRAL;
         solve(chain, root, path[0], &mut pose, &params);
         prop_assert!(fk_error(chain, root, &pose, path[0]) <= REACH_MM);
-        let mut misses = 0usize;
         for (frame, &target) in path.iter().enumerate().skip(1) {
             let before = pose;
             let r = solve(chain, root, target, &mut pose, &params);
             let err = fk_error(chain, root, &pose, target);
-            // Known limitation (README): along paths that pin joints at limits, a warm
-            // start can stall just above 1 mm for a frame; never more than 2 mm.
-            prop_assert!(err <= 2.0 * REACH_MM, "frame {frame}: FK error {err} m, {r:?}");
-            if err > REACH_MM {
-                misses += 1;
-            }
+            prop_assert!(err <= REACH_MM, "frame {frame}: FK error {err} m, {r:?}");
             let delta = before.max_joint_delta(&pose);
-            prop_assert!(delta <= MAX_JOINT_DELTA_PER_FRAME, "frame {frame}: joint jump {delta} rad");
+            prop_assert!(delta <= MAX_JOINT_DELTA_PER_FRAME, "frame {frame}: joint jump {delta} rad, {r:?}");
         }
-        prop_assert!(misses * 20 <= path.len(), "{misses} of {} frames above 1 mm", path.len());
     }
 
     /// NaN/inf targets are rejected and the pose is left as it was.
