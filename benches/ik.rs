@@ -8,7 +8,9 @@ use std::hint::black_box;
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use glam::{Quat, Vec3};
-use slothsim_rig::{CcdParams, ChainPose, LimbChain, Rig, RootTransform, solve};
+use slothsim_rig::{
+    CcdParams, ChainPose, FabrikParams, LimbChain, Rig, RootTransform, fabrik, solve,
+};
 
 /// Deterministic xorshift in [0, 1).
 fn rnd(state: &mut u64) -> f32 {
@@ -158,6 +160,46 @@ fn bench_ik(c: &mut Criterion) {
                 black_box(t),
                 &mut poses[limb],
                 &params,
+            ))
+        })
+    });
+    let fparams = FabrikParams::default();
+    group.bench_function("fabrik_cold_limb_solve", |b| {
+        let mut k = 0usize;
+        b.iter(|| {
+            let limb = k % 4;
+            let t = cold[limb][(k / 4) % cold[limb].len()];
+            k += 1;
+            let mut pose = ChainPose::NEUTRAL;
+            black_box(fabrik::solve(
+                &chains[limb],
+                root(),
+                black_box(t),
+                &mut pose,
+                &fparams,
+            ));
+            pose
+        })
+    });
+    group.bench_function("fabrik_warm_2mm_limb_solve", |b| {
+        let mut poses = [ChainPose::NEUTRAL; 4];
+        for (i, pose) in poses.iter_mut().enumerate() {
+            fabrik::solve(&chains[i], root(), warm[i][0], pose, &fparams);
+        }
+        let mut frame = [1usize; 4];
+        let mut k = 0usize;
+        b.iter(|| {
+            let limb = k % 4;
+            k += 1;
+            let path = &warm[limb];
+            let t = path[frame[limb] % path.len()];
+            frame[limb] += 1;
+            black_box(fabrik::solve(
+                &chains[limb],
+                root(),
+                black_box(t),
+                &mut poses[limb],
+                &fparams,
             ))
         })
     });

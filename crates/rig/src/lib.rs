@@ -31,6 +31,7 @@ pub mod sloth;
 pub use ccd::{CcdOrder, CcdParams, CcdResult, CcdStatus, solve};
 pub use chain::{CHAIN_JOINTS, ChainPose, LimbChain, RootTransform};
 pub use error::RigError;
+pub use fabrik::FabrikParams;
 pub use limb::Limb;
 pub use limits::{JointLimit, LimitProblem};
 pub use rig::{LimbJoints, LimbNames, Rig, RigMap};
