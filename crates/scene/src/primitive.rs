@@ -11,7 +11,7 @@
 //! (traces look for surfaces in front of the origin); rays are assumed to have
 //! unit-length directions.
 
-use glam::Vec3;
+use glam::{Vec3, Vec3A, Vec4};
 use obvhs::aabb::Aabb;
 
 use crate::SupportId;
@@ -88,6 +88,131 @@ impl Primitive {
             Primitive::Tri { v, .. } => triangle_overlaps_box(v, lo, hi),
         }
     }
+}
+
+/// A primitive's trace data, laid out for the hot loop (one cache line):
+/// round cones with their sweep-independent terms precomputed; triangles are
+/// only tagged (their [`Primitive`] is traced instead).
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[repr(C, align(64))]
+pub(crate) struct HotPrim {
+    /// `(a, ra)`.
+    a: Vec4,
+    /// `(b, rb)`.
+    b: Vec4,
+    /// `(b - a, |b - a|²)`.
+    ba: Vec4,
+    /// `rr = ra - rb`, `d2 = |b - a|² - rr²`, triangle tag (1 or 0), unused.
+    k: Vec4,
+}
+
+impl HotPrim {
+    /// The hot-loop form of `p`.
+    pub(crate) fn new(p: &Primitive) -> Self {
+        match *p {
+            Primitive::Cone { a, b, ra, rb, .. } => {
+                let ba = b - a;
+                let m0 = ba.dot(ba);
+                let rr = ra - rb;
+                HotPrim {
+                    a: a.extend(ra),
+                    b: b.extend(rb),
+                    ba: ba.extend(m0),
+                    k: Vec4::new(rr, m0 - rr * rr, 0.0, 0.0),
+                }
+            }
+            Primitive::Tri { .. } => HotPrim {
+                a: Vec4::ZERO,
+                b: Vec4::ZERO,
+                ba: Vec4::ZERO,
+                k: Vec4::new(0.0, 0.0, 1.0, 0.0),
+            },
+        }
+    }
+
+    /// Closest hit of a sphere of radius `r` (0 = line trace) moving from `o`
+    /// along unit `d`, like [`Primitive::sweep`]; `full` is this primitive's
+    /// [`Primitive`] (read for triangles only).
+    #[inline(always)]
+    pub(crate) fn sweep(
+        &self,
+        full: &Primitive,
+        o: Vec3A,
+        d: Vec3A,
+        r: f32,
+    ) -> Option<(f32, Vec3)> {
+        let [rr, d2, tri, _] = self.k.to_array();
+        if d2 <= 1e-12 {
+            if tri != 0.0 {
+                return full.sweep(o.into(), d.into(), r);
+            }
+            // One sphere contains the other: the hull is the larger sphere.
+            let (ra, rb) = (self.a.w + r, self.b.w + r);
+            return if ra >= rb {
+                ray_sphere_a(o, d, Vec3A::from_vec4(self.a), ra)
+            } else {
+                ray_sphere_a(o, d, Vec3A::from_vec4(self.b), rb)
+            };
+        }
+        let a = Vec3A::from_vec4(self.a);
+        let ba = Vec3A::from_vec4(self.ba);
+        let m0 = self.ba.w;
+        let ra = self.a.w + r;
+        let oa = o - a;
+        let m1 = ba.dot(oa);
+        let m2 = ba.dot(d);
+        let m3 = d.dot(oa);
+        let m5 = oa.dot(oa);
+
+        // Conical body.
+        let k2 = d2 - m2 * m2;
+        let k1 = d2 * m3 - m1 * m2 + m2 * rr * ra;
+        let k0 = d2 * m5 - m1 * m1 + m1 * rr * ra * 2.0 - m0 * ra * ra;
+        let h = k1 * k1 - k0 * k2;
+        if h < 0.0 {
+            return None;
+        }
+        if k2.abs() > 1e-12 {
+            let t = (-h.sqrt() - k1) / k2;
+            let y = m1 - ra * rr + t * m2;
+            if y > 0.0 && y < d2 {
+                if t < 0.0 {
+                    return None;
+                }
+                let n = (d2 * (oa + d * t) - ba * y).normalize_or_zero();
+                return Some((t, n.into()));
+            }
+        }
+        // Spherical caps.
+        let hit_a = ray_sphere_a(o, d, a, ra);
+        let hit_b = ray_sphere_a(o, d, Vec3A::from_vec4(self.b), self.b.w + r);
+        match (hit_a, hit_b) {
+            (Some(x), Some(y)) => Some(if y.0 < x.0 { y } else { x }),
+            (x, y) => x.or(y),
+        }
+    }
+}
+
+/// [`ray_sphere`] on `Vec3A`.
+#[inline(always)]
+fn ray_sphere_a(o: Vec3A, d: Vec3A, c: Vec3A, r: f32) -> Option<(f32, Vec3)> {
+    let oc = o - c;
+    let cc = oc.dot(oc) - r * r;
+    if cc < 0.0 {
+        return None;
+    }
+    let b = -oc.dot(d);
+    let f = oc + d * b;
+    let disc = r * r - f.dot(f);
+    if disc < 0.0 || b <= 0.0 {
+        return None;
+    }
+    let q = b + disc.sqrt();
+    let t = cc / q;
+    if t < 0.0 {
+        return None;
+    }
+    Some((t, (oc + d * t).normalize_or(-d).into()))
 }
 
 /// Ray vs round cone (convex hull of spheres `(a, ra)` and `(b, rb)`).
@@ -333,6 +458,78 @@ mod tests {
             }
         }
         assert!(hits > 100);
+    }
+
+    #[test]
+    fn hot_sweep_matches_primitive_sweep() {
+        let support = crate::SupportId(0);
+        let cones = [
+            (Vec3::new(0.0, 1.0, 0.0), Vec3::new(2.0, 1.5, 0.3), 0.3, 0.1),
+            (
+                Vec3::new(-1.0, 0.0, 0.5),
+                Vec3::new(-1.0, 3.0, 0.5),
+                0.2,
+                0.2,
+            ),
+            (
+                Vec3::new(0.5, 0.5, 0.5),
+                Vec3::new(0.6, 0.5, 0.5),
+                0.05,
+                0.4,
+            ),
+            (Vec3::new(1.0, 2.0, 3.0), Vec3::new(1.0, 2.0, 3.0), 0.3, 0.3),
+        ];
+        let mut hits = 0;
+        for (ci, &(a, b, ra, rb)) in cones.iter().enumerate() {
+            let p = Primitive::Cone {
+                a,
+                b,
+                ra,
+                rb,
+                support,
+            };
+            let hot = HotPrim::new(&p);
+            for i in 0..400 {
+                let f = i as f32;
+                let o = Vec3::new(
+                    3.0 * (f * 0.37).cos(),
+                    1.5 + 2.0 * (f * 0.13).sin(),
+                    3.0 * (f * 0.71).sin(),
+                );
+                let target = a.lerp(b, (i % 9) as f32 / 8.0)
+                    + Vec3::new(
+                        0.1 * ((i % 5) as f32 - 2.0),
+                        0.1 * ((i % 3) as f32 - 1.0),
+                        0.0,
+                    );
+                let d = (target - o).normalize();
+                for r in [0.0, 0.05, 0.3] {
+                    let want = p.sweep(o, d, r);
+                    let got = hot.sweep(&p, o.into(), d.into(), r);
+                    match (want, got) {
+                        (Some((tw, nw)), Some((tg, ng))) => {
+                            hits += 1;
+                            assert!((tw - tg).abs() < 1e-5, "cone {ci}: t {tw} vs {tg}");
+                            assert!(nw.distance(ng) < 1e-4, "cone {ci}: n {nw} vs {ng}");
+                        }
+                        (None, None) => {}
+                        (w, g) => panic!("cone {ci}, ray {i}, r {r}: {w:?} vs hot {g:?}"),
+                    }
+                }
+            }
+        }
+        assert!(hits > 1000, "{hits}");
+        let tri = Primitive::Tri {
+            v: [Vec3::ZERO, Vec3::X, Vec3::Y],
+            support,
+        };
+        let (o, d) = (Vec3::new(0.2, 0.2, 1.0), Vec3::NEG_Z);
+        for r in [0.0, 0.1] {
+            assert_eq!(
+                HotPrim::new(&tri).sweep(&tri, o.into(), d.into(), r),
+                tri.sweep(o, d, r)
+            );
+        }
     }
 
     #[test]

@@ -9,17 +9,20 @@
 
 use std::time::Duration;
 
-use glam::{Quat, UVec2, Vec3, Vec3A, Vec4};
+use glam::{Quat, Vec3, Vec3A, Vec4};
 use obvhs::{
     Boundable, BvhBuildParams,
     aabb::Aabb,
-    cwbvh::{CwBvh, builder::build_cwbvh, node::CwBvhNode},
+    cwbvh::{CwBvh, builder::build_cwbvh},
     ray::safe_inverse,
 };
 use rayon::prelude::*;
 use serde::Serialize;
 
-use crate::{Scene, SupportId, SupportKind, TraceError, primitive::Primitive};
+use crate::{
+    Scene, SupportId, SupportKind, TraceError,
+    primitive::{HotPrim, Primitive},
+};
 
 /// A line trace: from `origin` along `dir` (any length ≠ 0; normalised) up to `max_dist` metres.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -102,15 +105,173 @@ impl Boundable for PrimBounds {
     }
 }
 
+/// Deepest wide-BVH tree the fixed traversal stack supports.
+const MAX_DEPTH: usize = 64;
+
+/// One node of the traced 8-wide BVH: the topology of obvhs' `CwBvh` (child
+/// and primitive bases, inner-child mask, child meta) with its children's
+/// exact (uncompressed) boxes, stored as planes for a 4-lane slab test.
+#[derive(Clone, Copy)]
+#[repr(C, align(32))]
+struct WideNode {
+    /// Children 0–3 and 4–7: `[min_x, max_x, min_y, max_y, min_z, max_z]`.
+    /// Empty slots hold an inverted (never hit) box.
+    planes: [[Vec4; 6]; 2],
+    /// `CwBvhNode::child_meta` as a little-endian `u64`.
+    meta: u64,
+    child_base: u32,
+    prim_base: u32,
+    /// Inner-child mask (`CwBvhNode::imask`).
+    imask: u32,
+}
+
+/// Child hit bits and bit indices for the ray octant `oct_inv4`; obvhs'
+/// `CwBvhNode::get_child_and_index_bits`.
+#[inline(always)]
+fn child_and_index_bits(meta8: u64, oct_inv4: u32) -> (u64, u64) {
+    let oct_inv8 = oct_inv4 as u64 | ((oct_inv4 as u64) << 32);
+    let is_inner8 = (meta8 & (meta8 << 1)) & 0x1010_1010_1010_1010;
+    let inner_mask8 = (is_inner8 >> 4) * 0xff;
+    let bit_index8 = (meta8 ^ (oct_inv8 & inner_mask8)) & 0x1f1f_1f1f_1f1f_1f1f;
+    let child_bits8 = (meta8 >> 5) & 0x0707_0707_0707_0707;
+    (child_bits8, bit_index8)
+}
+
+/// Node hit mask in obvhs' layout (inner children in the high byte, leaf
+/// primitives in the low 24 bits) from the children hit (`hits`, bit per slot).
+#[inline(always)]
+fn hit_mask(node: &WideNode, mut hits: u32, oct_inv4: u32) -> u32 {
+    let (child_bits8, bit_index8) = child_and_index_bits(node.meta, oct_inv4);
+    let mut mask = 0u32;
+    while hits != 0 {
+        let shift = hits.trailing_zeros() * 8;
+        hits &= hits - 1;
+        let child_bits = ((child_bits8 >> shift) as u32) & 0xff;
+        let bit_index = ((bit_index8 >> shift) as u32) & 0xff;
+        mask |= child_bits << bit_index;
+    }
+    mask
+}
+
+/// The wide BVH's nodes (same indices as `cw.nodes`), with exact child boxes
+/// from the primitives' bounds (`bounds` in BVH order).
+fn wide_nodes(cw: &CwBvh, bounds: &[Aabb]) -> Vec<WideNode> {
+    fn fill(cw: &CwBvh, ni: u32, bounds: &[Aabb], out: &mut [WideNode]) -> Aabb {
+        let n = &cw.nodes[ni as usize];
+        let inverted = [0, 1, 2, 3, 4, 5].map(|k| {
+            if k % 2 == 0 {
+                Vec4::INFINITY
+            } else {
+                Vec4::NEG_INFINITY
+            }
+        });
+        let mut planes = [inverted; 2];
+        let mut total = Aabb::empty();
+        for c in 0..8 {
+            if n.is_child_empty(c) {
+                continue;
+            }
+            let b = if n.is_leaf(c) {
+                let (first, count) = n.child_primitives(c);
+                bounds[first as usize..(first + count) as usize]
+                    .iter()
+                    .fold(Aabb::empty(), |acc, b| acc.union(b))
+            } else {
+                fill(cw, n.child_node_index(c), bounds, out)
+            };
+            for axis in 0..3 {
+                planes[c / 4][axis * 2][c % 4] = b.min[axis];
+                planes[c / 4][axis * 2 + 1][c % 4] = b.max[axis];
+            }
+            total = total.union(&b);
+        }
+        out[ni as usize] = WideNode {
+            planes,
+            meta: u64::from_le_bytes(n.child_meta),
+            child_base: n.child_base_idx,
+            prim_base: n.primitive_base_idx,
+            imask: n.imask as u32,
+        };
+        total
+    }
+    let empty = WideNode {
+        planes: [[Vec4::ZERO; 6]; 2],
+        meta: 0,
+        child_base: 0,
+        prim_base: 0,
+        imask: 0,
+    };
+    let mut out = vec![empty; cw.nodes.len()];
+    if !cw.nodes.is_empty() {
+        fill(cw, 0, bounds, &mut out);
+    }
+    out
+}
+
+/// What a wide-BVH walk does at nodes and primitives.
+trait Visit {
+    /// Hit mask of `node`'s children (see [`hit_mask`]).
+    fn node(&mut self, node: &WideNode) -> u32;
+    /// Visits primitive `index` (BVH order).
+    fn prim(&mut self, index: u32);
+}
+
+/// Walks the wide BVH (obvhs' `traverse!` ordering: children in the ray
+/// octant's order, primitives of a node before its children).
+#[inline(always)]
+fn walk<V: Visit>(nodes: &[WideNode], oct_inv4: u32, v: &mut V) {
+    if nodes.is_empty() {
+        return;
+    }
+    let mut stack = [(0u32, 0u32); MAX_DEPTH];
+    let mut sp = 0usize;
+    // (child base, hit bits << 24 | inner mask); the root as a group of one.
+    let mut group = (0u32, 0x8000_0000u32);
+    let mut prims = (0u32, 0u32);
+    loop {
+        while prims.1 != 0 {
+            let local = 31 - prims.1.leading_zeros();
+            prims.1 &= !(1 << local);
+            v.prim(prims.0 + local);
+        }
+        if group.1 & 0xff00_0000 != 0 {
+            let hits_imask = group.1;
+            let offset = 31 - hits_imask.leading_zeros();
+            group.1 &= !(1 << offset);
+            if group.1 & 0xff00_0000 != 0 {
+                stack[sp] = group;
+                sp += 1;
+            }
+            let slot = (offset - 24) ^ (oct_inv4 & 0xff);
+            let relative = (hits_imask & !(u32::MAX << slot)).count_ones();
+            let node = &nodes[(group.0 + relative) as usize];
+            let hits = v.node(node);
+            group = (node.child_base, (hits & 0xff00_0000) | node.imask);
+            prims = (node.prim_base, hits & 0x00ff_ffff);
+        } else {
+            group.1 = 0;
+        }
+        if prims.1 == 0 && group.1 & 0xff00_0000 == 0 {
+            if sp == 0 {
+                break;
+            }
+            sp -= 1;
+            group = stack[sp];
+        }
+    }
+}
+
 /// A scene with its BVH, ready to trace. Built once; immutable.
 pub struct TraceScene {
     scene: Scene,
-    /// Compressed 8-wide BVH (obvhs `CwBvh`); traversed by [`SceneQuery`]
-    /// with its own node test, which grows child boxes by the sweep radius.
-    bvh: CwBvh,
-    /// Primitives in BVH order (`bvh.primitive_indices` applied), so leaf
+    /// 8-wide BVH: built by obvhs (`build_cwbvh`), traversed with exact
+    /// child boxes grown by the sweep radius.
+    nodes: Vec<WideNode>,
+    /// Primitives in BVH order (`primitive_indices` applied), so leaf
     /// primitive ids index this array directly.
     prims: Vec<Primitive>,
+    /// `prims` in their hot-loop layout.
+    hot: Vec<HotPrim>,
     stats: BvhStats,
 }
 
@@ -147,28 +308,41 @@ impl TraceScene {
             .map(|p| PrimBounds(p.aabb_inflated(0.0)))
             .collect();
         let mut build_time = Duration::ZERO;
-        let bvh = if prims.is_empty() {
+        let cw = if prims.is_empty() {
             CwBvh::default()
         } else {
             build_cwbvh(&bounds, BvhBuildParams::medium_build(), &mut build_time)
         };
-        let prims: Vec<Primitive> = bvh
+        let order = |i: &u32| *i as usize;
+        let prims: Vec<Primitive> = cw
             .primitive_indices
             .iter()
-            .map(|&i| prims[i as usize])
+            .map(|i| prims[order(i)])
             .collect();
-        let (leaves, depth) = cwbvh_shape(&bvh);
+        let bounds: Vec<Aabb> = cw
+            .primitive_indices
+            .iter()
+            .map(|i| bounds[order(i)].0)
+            .collect();
+        let hot = prims.iter().map(HotPrim::new).collect();
+        let nodes = wide_nodes(&cw, &bounds);
+        let (leaves, depth) = cwbvh_shape(&cw);
+        assert!(
+            depth < MAX_DEPTH,
+            "BVH depth {depth} exceeds the traversal stack ({MAX_DEPTH})"
+        );
         let stats = BvhStats {
             primitives: prims.len(),
-            nodes: bvh.nodes.len(),
+            nodes: nodes.len(),
             leaves,
             depth,
             build_ms: start.elapsed().as_secs_f64() * 1e3,
         };
         TraceScene {
             scene,
-            bvh,
+            nodes,
             prims,
+            hot,
             stats,
         }
     }
@@ -233,110 +407,118 @@ fn validate_line(line: &LineTrace) -> Result<(Vec3, Vec3, f32), TraceError> {
     Ok((line.origin, dir, line.max_dist))
 }
 
-/// Per-ray constants of the wide-node slab test.
-struct NodeRay {
-    origin: Vec3A,
-    inv_dir: Vec3A,
-    /// `radius · |inv_dir|`: how far the sweep radius moves each slab plane
-    /// along the ray (child boxes are grown by the radius).
-    grow: Vec3A,
-    neg: [bool; 3],
+/// Closest-hit sphere sweep (radius 0: line trace) through the wide BVH.
+struct Sweep<'a> {
+    prims: &'a [Primitive],
+    hot: &'a [HotPrim],
+    o: Vec3A,
+    d: Vec3A,
+    radius: f32,
+    /// Slab planes facing the ray per axis (index into `WideNode::planes`),
+    /// and the far ones.
+    near: [usize; 3],
+    far: [usize; 3],
+    /// Origin moved by the radius toward the near / far planes (child boxes
+    /// are grown by the radius), per axis, splat.
+    o_near: [Vec4; 3],
+    o_far: [Vec4; 3],
+    inv_dir: [Vec4; 3],
     oct_inv4: u32,
+    t_best: f32,
+    best: Option<(Vec3, u32)>,
 }
 
-impl NodeRay {
+impl<'a> Sweep<'a> {
     #[inline(always)]
-    fn new(o: Vec3, d: Vec3, radius: f32) -> Self {
-        let inv_dir = Vec3A::new(safe_inverse(d.x), safe_inverse(d.y), safe_inverse(d.z));
-        NodeRay {
-            origin: o.into(),
-            inv_dir,
-            grow: inv_dir.abs() * radius,
-            neg: [d.x < 0.0, d.y < 0.0, d.z < 0.0],
+    fn new(traces: &'a TraceScene, o: Vec3, d: Vec3, tmax: f32, radius: f32) -> Self {
+        let inv = Vec3::new(safe_inverse(d.x), safe_inverse(d.y), safe_inverse(d.z));
+        // Signs from the inverse: `safe_inverse(-0.0)` is negative.
+        let neg = [inv.x < 0.0, inv.y < 0.0, inv.z < 0.0];
+        let near = neg.map(usize::from);
+        // Near plane of a box grown by r: min - r (d ≥ 0) or max + r (d < 0).
+        let shift = |axis: usize| if neg[axis] { -radius } else { radius };
+        Sweep {
+            prims: &traces.prims,
+            hot: &traces.hot,
+            o: o.into(),
+            d: d.into(),
+            radius,
+            near: [near[0], 2 + near[1], 4 + near[2]],
+            far: [1 - near[0], 3 - near[1], 5 - near[2]],
+            o_near: [0, 1, 2].map(|a| Vec4::splat(o[a] + shift(a))),
+            o_far: [0, 1, 2].map(|a| Vec4::splat(o[a] - shift(a))),
+            inv_dir: [0, 1, 2].map(|a| Vec4::splat(inv[a])),
             // Ray octant, as obvhs' traversal expects it (`ray_get_octant_inv4`).
-            oct_inv4: (if d.x < 0.0 { 0 } else { 0x0404_0404 })
-                | (if d.y < 0.0 { 0 } else { 0x0202_0202 })
-                | (if d.z < 0.0 { 0 } else { 0x0101_0101 }),
+            oct_inv4: (if neg[0] { 0 } else { 0x0404_0404 })
+                | (if neg[1] { 0 } else { 0x0202_0202 })
+                | (if neg[2] { 0 } else { 0x0101_0101 }),
+            t_best: tmax,
+            best: None,
         }
-    }
-
-    /// Hit mask (obvhs `CwBvhNode::intersect_ray` layout) of the node's
-    /// children whose boxes, grown by the sweep radius, the segment
-    /// `[0, tmax]` crosses.
-    #[inline(always)]
-    fn intersect(&self, node: &CwBvhNode, tmax: f32) -> u32 {
-        let adj = node.compute_extent() * self.inv_dir;
-        let base = (Vec3A::from(node.p) - self.origin) * self.inv_dir;
-        let near = base - self.grow;
-        let far = base + self.grow;
-        let (nx, fx) = if self.neg[0] {
-            (&node.child_max_x, &node.child_min_x)
-        } else {
-            (&node.child_min_x, &node.child_max_x)
-        };
-        let (ny, fy) = if self.neg[1] {
-            (&node.child_max_y, &node.child_min_y)
-        } else {
-            (&node.child_min_y, &node.child_max_y)
-        };
-        let (nz, fz) = if self.neg[2] {
-            (&node.child_max_z, &node.child_min_z)
-        } else {
-            (&node.child_min_z, &node.child_max_z)
-        };
-        let (child_bits8, bit_index8) = node.get_child_and_index_bits(self.oct_inv4);
-        let mut hit_mask = 0u32;
-        for i in 0..2 {
-            #[inline(always)]
-            fn q(v: &[u8; 8], i: usize) -> Vec4 {
-                Vec4::new(
-                    v[i * 4] as f32,
-                    v[i * 4 + 1] as f32,
-                    v[i * 4 + 2] as f32,
-                    v[i * 4 + 3] as f32,
-                )
-            }
-            let t_near = (q(nx, i) * adj.x + Vec4::splat(near.x))
-                .max(q(ny, i) * adj.y + Vec4::splat(near.y))
-                .max(q(nz, i) * adj.z + Vec4::splat(near.z))
-                .max(Vec4::ZERO);
-            let t_far = (q(fx, i) * adj.x + Vec4::splat(far.x))
-                .min(q(fy, i) * adj.y + Vec4::splat(far.y))
-                .min(q(fz, i) * adj.z + Vec4::splat(far.z))
-                .min(Vec4::splat(tmax));
-            let mask = t_near.cmple(t_far).bitmask();
-            for j in 0..4 {
-                if mask & (1 << j) != 0 {
-                    let offset = (i * 4 + j) * 8;
-                    let child_bits = ((child_bits8 >> offset) as u32) & 0xff;
-                    let bit_index = ((bit_index8 >> offset) as u32) & 0xff;
-                    hit_mask |= child_bits << bit_index;
-                }
-            }
-        }
-        hit_mask
     }
 }
 
-/// Hit mask (obvhs `CwBvhNode::intersect_ray` layout) of the node's children
-/// whose boxes overlap the box `[lo, hi]` (world space).
-#[inline(always)]
-fn aabb_hits(node: &CwBvhNode, lo: Vec3A, hi: Vec3A, oct_inv4: u32) -> u32 {
-    let e = node.compute_extent();
-    let p = Vec3A::from(node.p);
-    let (child_bits8, bit_index8) = node.get_child_and_index_bits(oct_inv4);
-    let mut hit_mask = 0u32;
-    for child in 0..8 {
-        let local = node.local_child_aabb(child);
-        let (cmin, cmax) = (p + local.min * e, p + local.max * e);
-        if cmin.cmple(hi).all() && cmax.cmpge(lo).all() {
-            let offset = child * 8;
-            let child_bits = ((child_bits8 >> offset) as u32) & 0xff;
-            let bit_index = ((bit_index8 >> offset) as u32) & 0xff;
-            hit_mask |= child_bits << bit_index;
+impl Visit for Sweep<'_> {
+    #[inline(always)]
+    fn node(&mut self, node: &WideNode) -> u32 {
+        let tmax = Vec4::splat(self.t_best);
+        let mut hits = 0u32;
+        for (half, p) in node.planes.iter().enumerate() {
+            let slab = |axis: usize, plane: usize, o: &[Vec4; 3]| {
+                (p[plane] - o[axis]) * self.inv_dir[axis]
+            };
+            let t_near = slab(0, self.near[0], &self.o_near)
+                .max(slab(1, self.near[1], &self.o_near))
+                .max(slab(2, self.near[2], &self.o_near))
+                .max(Vec4::ZERO);
+            let t_far = slab(0, self.far[0], &self.o_far)
+                .min(slab(1, self.far[1], &self.o_far))
+                .min(slab(2, self.far[2], &self.o_far))
+                .min(tmax);
+            hits |= t_near.cmple(t_far).bitmask() << (half * 4);
+        }
+        hit_mask(node, hits, self.oct_inv4)
+    }
+
+    #[inline(always)]
+    fn prim(&mut self, index: u32) {
+        let i = index as usize;
+        if let Some((t, n)) = self.hot[i].sweep(&self.prims[i], self.o, self.d, self.radius)
+            && (t < self.t_best
+                || (t == self.t_best && self.best.is_some_and(|(_, bi)| index < bi)))
+        {
+            // Exact ties go to the lowest index, like the brute-force scan.
+            self.t_best = t;
+            self.best = Some((n, index));
         }
     }
-    hit_mask
+}
+
+/// Box-overlap candidates: children whose boxes overlap `[lo, hi]`.
+struct Overlap<F> {
+    lo: [Vec4; 3],
+    hi: [Vec4; 3],
+    on_prim: F,
+}
+
+impl<F: FnMut(u32)> Visit for Overlap<F> {
+    #[inline(always)]
+    fn node(&mut self, node: &WideNode) -> u32 {
+        let mut hits = 0u32;
+        for (half, p) in node.planes.iter().enumerate() {
+            let mut ok = glam::BVec4A::splat(true);
+            for axis in 0..3 {
+                ok &= p[axis * 2].cmple(self.hi[axis]) & p[axis * 2 + 1].cmpge(self.lo[axis]);
+            }
+            hits |= ok.bitmask() << (half * 4);
+        }
+        hit_mask(node, hits, 0)
+    }
+
+    #[inline(always)]
+    fn prim(&mut self, index: u32) {
+        (self.on_prim)(index);
+    }
 }
 
 /// Borrowed view for tracing a [`TraceScene`]. Cheap to copy; `Send + Sync`.
@@ -375,47 +557,22 @@ impl<'a> SceneQuery<'a> {
 
     fn sweep(&self, line: &LineTrace, radius: f32) -> TraceResult {
         let (o, d, tmax) = validate_line(line)?;
-        let prims = &self.traces.prims;
-        if prims.is_empty() {
-            return Ok(None);
-        }
-        let Some((t, n, pi)) = self.closest(o, d, tmax, radius) else {
-            return Ok(None);
-        };
-        let support = prims[pi].support();
-        Ok(Some(TraceHit {
+        let mut sweep = Sweep::new(self.traces, o, d, tmax, radius);
+        walk(&self.traces.nodes, sweep.oct_inv4, &mut sweep);
+        Ok(sweep
+            .best
+            .map(|(n, pi)| self.hit(o, d, radius, sweep.t_best, n, pi)))
+    }
+
+    fn hit(&self, o: Vec3, d: Vec3, radius: f32, t: f32, n: Vec3, pi: u32) -> TraceHit {
+        let support = self.traces.prims[pi as usize].support();
+        TraceHit {
             point: o + d * t - n * radius,
             normal: n,
             support,
             kind: self.traces.scene.support(support).kind,
             distance: t,
-        }))
-    }
-
-    /// Closest hit `(t, normal, primitive)` with `t < tmax` of a sphere of
-    /// `radius` (0: a line) moving from `o` along unit `d`. Walks the wide
-    /// BVH with child boxes grown by the radius, near children first.
-    #[inline]
-    fn closest(&self, o: Vec3, d: Vec3, tmax: f32, radius: f32) -> Option<(f32, Vec3, usize)> {
-        let bvh = &self.traces.bvh;
-        let prims = &self.traces.prims;
-        let nr = NodeRay::new(o, d, radius);
-        let mut state = bvh.new_traversal(d.into());
-        state.oct_inv4 = nr.oct_inv4;
-        let mut t_best = tmax;
-        let mut best: Option<(Vec3, usize)> = None;
-        let mut node;
-        obvhs::traverse!(bvh, node, state, nr.intersect(node, t_best), {
-            let pi = state.primitive_id as usize;
-            if let Some((t, n)) = prims[pi].sweep(o, d, radius)
-                && (t < t_best || (t == t_best && best.is_some_and(|(_, bi)| pi < bi)))
-            {
-                // Exact ties go to the lowest index, like the brute-force scan.
-                t_best = t;
-                best = Some((n, pi));
-            }
-        });
-        best.map(|(n, pi)| (t_best, n, pi))
+        }
     }
 
     /// Ids of supports whose solid overlaps the oriented box, sorted and
@@ -427,16 +584,18 @@ impl<'a> SceneQuery<'a> {
         if prims.is_empty() {
             return Ok(());
         }
-        let bvh = &self.traces.bvh;
-        let (lo, hi) = (Vec3A::from(world_aabb.min), Vec3A::from(world_aabb.max));
-        let mut state = bvh.new_traversal(Vec3A::X);
-        let mut node;
-        obvhs::traverse!(bvh, node, state, aabb_hits(node, lo, hi, state.oct_inv4), {
-            let p = &prims[state.primitive_id as usize];
-            if prim_overlaps_local_box(p, &to_local, bx.half_extents) {
-                out.push(p.support());
-            }
-        });
+        let (lo, hi) = (world_aabb.min, world_aabb.max);
+        let mut visit = Overlap {
+            lo: [0, 1, 2].map(|a| Vec4::splat(lo[a])),
+            hi: [0, 1, 2].map(|a| Vec4::splat(hi[a])),
+            on_prim: |i: u32| {
+                let p = &prims[i as usize];
+                if prim_overlaps_local_box(p, &to_local, bx.half_extents) {
+                    out.push(p.support());
+                }
+            },
+        };
+        walk(&self.traces.nodes, 0, &mut visit);
         out.sort_unstable();
         out.dedup();
         Ok(())
@@ -474,22 +633,19 @@ impl<'a> SceneQuery<'a> {
             }
         };
         let (o, d, tmax) = validate_line(line)?;
-        let mut best: Option<(f32, Vec3, SupportId)> = None;
-        for p in &self.traces.prims {
-            if let Some((t, n)) = p.sweep(o, d, radius)
+        // The same primitive intersector as the BVH walk (`HotPrim::sweep`,
+        // unit-tested against `Primitive::sweep`), so results compare exactly.
+        let (oa, da) = (Vec3A::from(o), Vec3A::from(d));
+        let mut best: Option<(f32, Vec3, u32)> = None;
+        for (i, (p, h)) in self.traces.prims.iter().zip(&self.traces.hot).enumerate() {
+            if let Some((t, n)) = h.sweep(p, oa, da, radius)
                 && t < tmax
                 && best.is_none_or(|b| t < b.0)
             {
-                best = Some((t, n, p.support()));
+                best = Some((t, n, i as u32));
             }
         }
-        Ok(best.map(|(t, n, support)| TraceHit {
-            point: o + d * t - n * radius,
-            normal: n,
-            support,
-            kind: self.traces.scene.support(support).kind,
-            distance: t,
-        }))
+        Ok(best.map(|(t, n, pi)| self.hit(o, d, radius, t, n, pi)))
     }
 
     /// Reference: box overlap by scanning every primitive (no BVH).
