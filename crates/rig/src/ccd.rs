@@ -10,10 +10,14 @@
 //! 3. `fk_local`: positions/rotations of the warm-start pose; early exit if in tolerance.
 //! 4. sweeps: for each joint (tail-first by default) rotate it so the effector points at
 //!    the target, capped at `max_step_angle`, then clamp into the joint limit
-//!    (`hinge_step`/`ball_step`), then update the joints below it. Early exit as soon as
-//!    the effector is within `tolerance`, or when a sweep improves the error by less
-//!    than `min_improvement` (unreachable target: the pose settles and stays put, so
-//!    there is no frame-to-frame jitter).
+//!    (`hinge_step`/`arc_step` + clamp, no trig), then update the effector (tail-first)
+//!    or the joints below (root-first). Early exit as soon as the effector is within
+//!    `tolerance`, or when a sweep improves the error by less than `min_improvement`
+//!    (unreachable target: the pose settles and stays put, so no frame-to-frame jitter).
+//! 5. `polish`: sweeps that stall short of a target within reach hand over to the
+//!    limit-aware damped least squares of `refine` (CCD gets trapped at limit corners).
+//! 6. Smoothness guard: a warm solve that turned a joint by more than
+//!    [`SMOOTH_JOINT_STEP`] is redone by the least squares from the warm start.
 //!
 //! Degenerate cases: a target on top of a joint gives no direction for that joint, so
 //! the joint is skipped; a target beyond reach leaves the limb stretched toward it
