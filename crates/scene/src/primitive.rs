@@ -102,7 +102,8 @@ pub(crate) struct HotPrim {
     b: Vec4,
     /// `(b - a, |b - a|²)`.
     ba: Vec4,
-    /// `rr = ra - rb`, `d2 = |b - a|² - rr²`, triangle tag (1 or 0), unused.
+    /// `rr = ra - rb`, `d2 = |b - a|² - rr²`, triangle tag (1 or 0), and the
+    /// owning support's id (its bits).
     k: Vec4,
 }
 
@@ -118,16 +119,22 @@ impl HotPrim {
                     a: a.extend(ra),
                     b: b.extend(rb),
                     ba: ba.extend(m0),
-                    k: Vec4::new(rr, m0 - rr * rr, 0.0, 0.0),
+                    k: Vec4::new(rr, m0 - rr * rr, 0.0, f32::from_bits(p.support().0)),
                 }
             }
             Primitive::Tri { .. } => HotPrim {
                 a: Vec4::ZERO,
                 b: Vec4::ZERO,
                 ba: Vec4::ZERO,
-                k: Vec4::new(0.0, 0.0, 1.0, 0.0),
+                k: Vec4::new(0.0, 0.0, 1.0, f32::from_bits(p.support().0)),
             },
         }
+    }
+
+    /// The support this primitive belongs to.
+    #[inline(always)]
+    pub(crate) fn support(&self) -> SupportId {
+        SupportId(self.k.w.to_bits())
     }
 
     /// Closest hit of a sphere of radius `r` (0 = line trace) moving from `o`

@@ -272,6 +272,8 @@ pub struct TraceScene {
     prims: Vec<Primitive>,
     /// `prims` in their hot-loop layout.
     hot: Vec<HotPrim>,
+    /// Each support's kind, by id (a compact copy for trace hits).
+    kinds: Vec<SupportKind>,
     stats: BvhStats,
 }
 
@@ -338,8 +340,10 @@ impl TraceScene {
             depth,
             build_ms: start.elapsed().as_secs_f64() * 1e3,
         };
+        let kinds = scene.supports().iter().map(|s| s.kind).collect();
         TraceScene {
             scene,
+            kinds,
             nodes,
             prims,
             hot,
@@ -565,12 +569,12 @@ impl<'a> SceneQuery<'a> {
     }
 
     fn hit(&self, o: Vec3, d: Vec3, radius: f32, t: f32, n: Vec3, pi: u32) -> TraceHit {
-        let support = self.traces.prims[pi as usize].support();
+        let support = self.traces.hot[pi as usize].support();
         TraceHit {
             point: o + d * t - n * radius,
             normal: n,
             support,
-            kind: self.traces.scene.support(support).kind,
+            kind: self.traces.kinds[support.0 as usize],
             distance: t,
         }
     }
