@@ -22,6 +22,8 @@ enum Command {
     Scene(scene_cmd::SceneCommand),
     /// Run one sloth on a thesis scenario preset and judge it (exit 0 pass, 1 fail).
     Scenario(scenario_cmd::ScenarioArgs),
+    /// Sweep every preset over its angle range (thesis Table 7); exit 0 when the thesis ranges pass.
+    Matrix(scenario_cmd::MatrixArgs),
 }
 
 fn main() -> ExitCode {
@@ -29,6 +31,7 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Scene(cmd) => scene_cmd::run(cmd).map(|()| true),
         Command::Scenario(args) => scenario_cmd::scenario(args),
+        Command::Matrix(args) => scenario_cmd::matrix(args),
     };
     match result {
         Ok(true) => ExitCode::SUCCESS,

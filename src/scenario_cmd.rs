@@ -70,10 +70,13 @@ pub fn load_config(profile: ProfileArg, file: Option<&Path>) -> Result<Locomotio
                 .with_context(|| format!("cannot read config {}", path.display()))?;
             let mut text = text;
             if !text.contains("profile") {
-                text = format!("profile = \"{}\"\n{text}", match profile {
-                    Profile::Free => "free",
-                    Profile::Steady => "steady",
-                });
+                text = format!(
+                    "profile = \"{}\"\n{text}",
+                    match profile {
+                        Profile::Free => "free",
+                        Profile::Steady => "steady",
+                    }
+                );
             }
             LocomotionConfig::from_toml(&text)
                 .map_err(|e| anyhow::anyhow!("invalid config {}: {e}", path.display()))
@@ -85,10 +88,16 @@ fn preset_value(kind: PresetKind, angle: Option<f32>, param: Option<f32>) -> Res
     Ok(match (kind.parameter(), angle, param) {
         (_, Some(_), Some(_)) => bail!("give either --angle or --param, not both"),
         (Some((name, unit, ..)), Some(_), None) if unit != "deg" => {
-            bail!("preset `{}` takes --param ({name} in {unit}), not --angle", kind.name())
+            bail!(
+                "preset `{}` takes --param ({name} in {unit}), not --angle",
+                kind.name()
+            )
         }
         (Some((name, "deg", ..)), None, Some(_)) => {
-            bail!("preset `{}` takes --angle ({name} in degrees), not --param", kind.name())
+            bail!(
+                "preset `{}` takes --angle ({name} in degrees), not --param",
+                kind.name()
+            )
         }
         (_, a, p) => a.or(p),
     })
@@ -96,7 +105,8 @@ fn preset_value(kind: PresetKind, angle: Option<f32>, param: Option<f32>) -> Res
 
 /// Writes `value` as pretty JSON to `dir/name`, through a temporary file.
 pub fn write_json(dir: &Path, name: &str, value: &impl serde::Serialize) -> Result<PathBuf> {
-    std::fs::create_dir_all(dir).with_context(|| format!("cannot create output folder {}", dir.display()))?;
+    std::fs::create_dir_all(dir)
+        .with_context(|| format!("cannot create output folder {}", dir.display()))?;
     let path = dir.join(name);
     let tmp = dir.join(format!(".{name}.tmp"));
     let text = serde_json::to_string_pretty(value)?;
@@ -108,15 +118,34 @@ pub fn write_json(dir: &Path, name: &str, value: &impl serde::Serialize) -> Resu
 fn print_result(r: &ScenarioResult) {
     let j = &r.judge;
     let p = r.parameter.map_or(String::new(), |v| format!(" {v}"));
-    let v = r.variant.map_or(String::new(), |v| format!(" ({v:?})").to_lowercase());
-    println!("scenario {}{p}{v}: {}", r.scenario, if r.verdict.pass { "PASS" } else { "FAIL" });
-    println!("  status {:?}, goal reached {} at {:?} s (limit {:.0} s)", r.status, j.goal_reached, j.goal_time_s, r.time_limit_s);
+    let v = r
+        .variant
+        .map_or(String::new(), |v| format!(" ({v:?})").to_lowercase());
+    println!(
+        "scenario {}{p}{v}: {}",
+        r.scenario,
+        if r.verdict.pass { "PASS" } else { "FAIL" }
+    );
+    println!(
+        "  status {:?}, goal reached {} at {:?} s (limit {:.0} s)",
+        r.status, j.goal_reached, j.goal_time_s, r.time_limit_s
+    );
     println!(
         "  slip {:.4} m, gap {:.4} m, reach ratio {:.3}, limit violations {}, min contact {}, penetration {:.4} m, head-below-hips {}, NaN {}",
-        j.max_grip_slip_m, j.max_surface_gap_m, j.max_reach_ratio, j.joint_limit_violations,
-        j.min_limbs_in_contact, j.max_penetration_m, j.head_below_hips_on_trunk_frames, j.nan_count
+        j.max_grip_slip_m,
+        j.max_surface_gap_m,
+        j.max_reach_ratio,
+        j.joint_limit_violations,
+        j.min_limbs_in_contact,
+        j.max_penetration_m,
+        j.head_below_hips_on_trunk_frames,
+        j.nan_count
     );
-    println!("  speed {:.3} m/s, footfall order {:?}", r.gait.speed_mps_mean, r.gait.footfall_order.iter().take(8).collect::<Vec<_>>());
+    println!(
+        "  speed {:.3} m/s, footfall order {:?}",
+        r.gait.speed_mps_mean,
+        r.gait.footfall_order.iter().take(8).collect::<Vec<_>>()
+    );
     for f in &r.verdict.failures {
         println!("  failed: {f}");
     }
@@ -154,4 +183,182 @@ pub fn scenario(args: ScenarioArgs) -> Result<bool> {
         println!("wrote {}", path.display());
     }
     Ok(result.verdict.pass)
+}
+
+#[derive(Args)]
+pub struct MatrixArgs {
+    /// Gait profile.
+    #[arg(long, value_enum, default_value = "free")]
+    profile: ProfileArg,
+    /// Locomotion config (TOML); overrides the profile's defaults.
+    #[arg(long, value_name = "FILE")]
+    config: Option<PathBuf>,
+    /// Angle step of the sweeps, degrees.
+    #[arg(long, default_value_t = 5.0)]
+    step: f32,
+    /// Output folder for matrix.json.
+    #[arg(long)]
+    out: Option<PathBuf>,
+}
+
+/// One row of the matrix.
+#[derive(serde::Serialize)]
+struct MatrixRow {
+    scenario: String,
+    thesis_range: Option<[f32; 2]>,
+    runs: Vec<MatrixRun>,
+    passing: Vec<[f32; 2]>,
+}
+
+#[derive(serde::Serialize)]
+struct MatrixRun {
+    parameter: Option<f32>,
+    variant: Option<TrunkVariant>,
+    pass: bool,
+    goal_time_s: Option<f32>,
+    failures: Vec<String>,
+}
+
+/// Contiguous passing ranges of a sweep.
+fn passing_ranges(runs: &[MatrixRun]) -> Vec<[f32; 2]> {
+    let mut out: Vec<[f32; 2]> = Vec::new();
+    let mut open: Option<[f32; 2]> = None;
+    for r in runs {
+        let Some(p) = r.parameter else { continue };
+        match (&mut open, r.pass) {
+            (Some(range), true) => range[1] = p,
+            (None, true) => open = Some([p, p]),
+            (Some(range), false) => {
+                out.push(*range);
+                open = None;
+            }
+            (None, false) => {}
+        }
+    }
+    out.extend(open);
+    out
+}
+
+/// `slothsim matrix`: every preset over its range; true when the thesis ranges all pass.
+pub fn matrix(args: MatrixArgs) -> Result<bool> {
+    if !(args.step.is_finite() && args.step >= 1.0) {
+        bail!("--step {} must be at least 1 degree", args.step);
+    }
+    let cfg = load_config(args.profile, args.config.as_deref())?;
+    let rig = Rig::sloth();
+    // (preset, sweep range, thesis range: strict interior must pass)
+    let sweeps: [(PresetKind, Option<[f32; 2]>, Option<[f32; 2]>); 6] = [
+        (PresetKind::Turn, Some([60.0, 180.0]), Some([95.0, 175.0])),
+        (
+            PresetKind::HeightChange,
+            Some([110.0, 220.0]),
+            Some([135.0, 200.0]),
+        ),
+        (
+            PresetKind::BranchTrunk,
+            Some([60.0, 160.0]),
+            Some([90.0, 140.0]),
+        ),
+        (PresetKind::Parallel, None, None),
+        (PresetKind::Trunk, None, None),
+        (PresetKind::Pole, None, None),
+    ];
+    let mut rows = Vec::new();
+    let mut all_ok = true;
+    println!(
+        "{:<14} {:>8}  {:<6} {}",
+        "scenario", "param", "result", "notes"
+    );
+    for (kind, sweep, thesis) in sweeps {
+        let mut runs = Vec::new();
+        let params: Vec<Option<f32>> = match sweep {
+            Some([lo, hi]) => {
+                let n = ((hi - lo) / args.step).floor() as usize;
+                (0..=n).map(|i| Some(lo + i as f32 * args.step)).collect()
+            }
+            None => vec![None],
+        };
+        let variants: &[TrunkVariant] = if kind == PresetKind::Trunk {
+            &[TrunkVariant::Up, TrunkVariant::Down]
+        } else {
+            &[TrunkVariant::Up]
+        };
+        for p in params {
+            for &variant in variants {
+                let spec = ScenarioSpec {
+                    preset: Preset::new(kind, p)?,
+                    variant,
+                    cfg: cfg.clone(),
+                    dt: 1.0 / 60.0,
+                    time_limit_s: None,
+                    tolerances: Tolerances::default(),
+                };
+                let r = run_scenario(&spec, &rig)?;
+                let label = match (p, kind == PresetKind::Trunk) {
+                    (Some(v), _) => format!("{v}"),
+                    (None, true) => format!("{variant:?}").to_lowercase(),
+                    (None, false) => "-".into(),
+                };
+                println!(
+                    "{:<14} {:>8}  {:<6} {}",
+                    kind.name(),
+                    label,
+                    if r.verdict.pass { "pass" } else { "FAIL" },
+                    r.verdict.failures.first().map_or("", |s| s.as_str())
+                );
+                let in_thesis = match (thesis, p) {
+                    (Some([lo, hi]), Some(v)) => v > lo && v < hi,
+                    _ => true,
+                };
+                if in_thesis && !r.verdict.pass {
+                    all_ok = false;
+                }
+                runs.push(MatrixRun {
+                    parameter: p,
+                    variant: (kind == PresetKind::Trunk).then_some(variant),
+                    pass: r.verdict.pass,
+                    goal_time_s: r.judge.goal_time_s,
+                    failures: r.verdict.failures.clone(),
+                });
+            }
+        }
+        let passing = passing_ranges(&runs);
+        rows.push(MatrixRow {
+            scenario: kind.name().into(),
+            thesis_range: thesis,
+            runs,
+            passing,
+        });
+    }
+    println!();
+    println!(
+        "{:<14} {:<22} {}",
+        "scenario", "thesis (strict)", "passing here"
+    );
+    for row in &rows {
+        let thesis = row
+            .thesis_range
+            .map_or("success".to_string(), |[a, b]| format!("{a} < a < {b}"));
+        let here = if row.thesis_range.is_some() {
+            row.passing
+                .iter()
+                .map(|[a, b]| format!("{a}–{b}"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        } else {
+            let ok = row.runs.iter().all(|r| r.pass);
+            if ok { "success".into() } else { "FAIL".into() }
+        };
+        println!(
+            "{:<14} {:<22} {}",
+            row.scenario,
+            thesis,
+            if here.is_empty() { "none".into() } else { here }
+        );
+    }
+    if let Some(dir) = &args.out {
+        let path = write_json(dir, "matrix.json", &rows)?;
+        println!("wrote {}", path.display());
+    }
+    Ok(all_ok)
 }

@@ -64,7 +64,7 @@ pub struct LocomotionConfig {
     /// rig so the limbs hang at ~80 % of their neutral reach (the thesis' 7 cm
     /// is for its UE model's proportions).
     pub body_vertical_offset_m: Option<f32>,
-    /// Smoothing time constant of body position/rotation.
+    /// Smoothing time constant of the body rotation (formula 6).
     pub body_smoothing_s: f32,
     /// Clearance of the swing arc above the support surface.
     pub swing_clearance_m: f32,
@@ -115,7 +115,7 @@ impl LocomotionConfig {
             min_step_m: 0.03,
             claw_length_m: 0.05,
             body_vertical_offset_m: None,
-            body_smoothing_s: 0.15,
+            body_smoothing_s: 0.05,
             swing_clearance_m: 0.05,
             trunk_grip_angle_deg: 45.0,
             max_reach_fraction: 0.97,
@@ -147,8 +147,8 @@ impl LocomotionConfig {
             .ok()
             .and_then(|p| p.profile)
             .unwrap_or_default();
-        let mut merged = toml::Table::try_from(LocomotionConfig::profile(profile))
-            .map_err(|e| e.to_string())?;
+        let mut merged =
+            toml::Table::try_from(LocomotionConfig::profile(profile)).map_err(|e| e.to_string())?;
         for (k, v) in table {
             merged.insert(k, v);
         }
@@ -175,7 +175,9 @@ impl LocomotionConfig {
     /// Gait cycle duration.
     pub fn cycle_duration(&self) -> f32 {
         self.cycle_s.unwrap_or_else(|| {
-            let longest = self.swing_duration(Limb::LF).max(self.swing_duration(Limb::LH));
+            let longest = self
+                .swing_duration(Limb::LF)
+                .max(self.swing_duration(Limb::LH));
             4.0 * (longest + self.time_between_steps_s)
         })
     }
@@ -185,8 +187,18 @@ impl LocomotionConfig {
         let p = self.limb_phase;
         let mut out = [0.0; 4];
         let order = match self.sequence {
-            Sequence::Dsdc => [(Limb::RH, 0.0), (Limb::LF, p), (Limb::LH, 0.5), (Limb::RF, 0.5 + p)],
-            Sequence::Lsdc => [(Limb::RH, 0.0), (Limb::RF, p), (Limb::LH, 0.5), (Limb::LF, 0.5 + p)],
+            Sequence::Dsdc => [
+                (Limb::RH, 0.0),
+                (Limb::LF, p),
+                (Limb::LH, 0.5),
+                (Limb::RF, 0.5 + p),
+            ],
+            Sequence::Lsdc => [
+                (Limb::RH, 0.0),
+                (Limb::RF, p),
+                (Limb::LH, 0.5),
+                (Limb::LF, 0.5 + p),
+            ],
         };
         for (limb, ph) in order {
             out[limb.index()] = ph.rem_euclid(1.0);
@@ -218,7 +230,9 @@ impl LocomotionConfig {
         if let Some(c) = self.cycle_s {
             check("cycle_s", c, 0.2, 60.0)?;
         }
-        let longest = self.swing_duration(Limb::LF).max(self.swing_duration(Limb::LH));
+        let longest = self
+            .swing_duration(Limb::LF)
+            .max(self.swing_duration(Limb::LH));
         if self.cycle_duration() < longest * 1.05 {
             return Err(ConfigError {
                 field: "cycle_s",
@@ -231,7 +245,10 @@ impl LocomotionConfig {
             return Err(ConfigError {
                 field: "max_step_m",
                 value: self.max_step_m.to_string(),
-                allowed: format!("a step longer than the reach allows ({:.3} m) can never be taken", 2.0 * reach * self.max_reach_fraction),
+                allowed: format!(
+                    "a step longer than the reach allows ({:.3} m) can never be taken",
+                    2.0 * reach * self.max_reach_fraction
+                ),
             });
         }
         check("search_distance_m", self.search_distance_m, 0.02, 2.0)?;
@@ -245,7 +262,12 @@ impl LocomotionConfig {
         check("swing_clearance_m", self.swing_clearance_m, 0.0, 0.5)?;
         check("trunk_grip_angle_deg", self.trunk_grip_angle_deg, 0.0, 80.0)?;
         check("max_reach_fraction", self.max_reach_fraction, 0.5, 1.0)?;
-        check("hind_transfer_trace_cap_m", self.hind_transfer_trace_cap_m, 0.01, 1.0)?;
+        check(
+            "hind_transfer_trace_cap_m",
+            self.hind_transfer_trace_cap_m,
+            0.01,
+            1.0,
+        )?;
         check("offset_back_m", self.offset_back_m, 0.0, 0.5)?;
         Ok(())
     }
@@ -280,7 +302,10 @@ mod tests {
 
     #[test]
     fn max_step_longer_than_reach_is_rejected() {
-        let c = LocomotionConfig { max_step_m: 1.5, ..Default::default() };
+        let c = LocomotionConfig {
+            max_step_m: 1.5,
+            ..Default::default()
+        };
         let err = c.validate(0.4).unwrap_err();
         assert_eq!(err.field, "max_step_m");
     }

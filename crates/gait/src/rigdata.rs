@@ -35,10 +35,18 @@ impl RigData {
         let mut model = vec![Affine3A::IDENTITY; sk.len()];
         sk.fk(&locals, &mut model);
         let chains = Limb::ALL.map(|l| *rig.chain(l));
-        let roots_ms = Limb::ALL.map(|l| RootTransform::from_affine(&model[rig.limb_joints(l).chain_root]));
-        let reach = chains.iter().map(|c| c.reach()).fold(f32::INFINITY, f32::min);
-        let neutral_tip_ms = Limb::ALL.map(|l| chains[l.index()].fk(roots_ms[l.index()], &ChainPose::NEUTRAL)[4]);
-        let find = |name: &str, fallback: Vec3| sk.find(name).map_or(fallback, |i| model[i].translation.into());
+        let roots_ms =
+            Limb::ALL.map(|l| RootTransform::from_affine(&model[rig.limb_joints(l).chain_root]));
+        let reach = chains
+            .iter()
+            .map(|c| c.reach())
+            .fold(f32::INFINITY, f32::min);
+        let neutral_tip_ms =
+            Limb::ALL.map(|l| chains[l.index()].fk(roots_ms[l.index()], &ChainPose::NEUTRAL)[4]);
+        let find = |name: &str, fallback: Vec3| {
+            sk.find(name)
+                .map_or(fallback, |i| model[i].translation.into())
+        };
         let hips_ms = find("Hips", roots_ms[Limb::LH.index()].position.into());
         let head_ms = find("HeadTip", roots_ms[Limb::LF.index()].position.into());
         let chest = find("Chest", roots_ms[Limb::LF.index()].position.into());

@@ -37,6 +37,16 @@ const TRACE_STANDOFF: f32 = 0.15;
 const END_MARGIN: f32 = 0.03;
 /// A grip closer to its root than this fraction of reach is too folded.
 const MIN_REACH_FRACTION: f32 = 0.3;
+/// The sloth stops (no grip) after this many step searches in a row found
+/// nothing: two full gait cycles in which no limb could move.
+const STOP_AFTER_FAILED_SEARCHES: u8 = 8;
+/// A step is taken only if CCD (within joint limits) gets the stepping limb's
+/// claw this close to its new grip from the stance that step implies…
+const STANCE_IK_TOLERANCE: f32 = 0.0015;
+/// …and every other claw this close to the grip it holds.
+const HOLD_IK_TOLERANCE: f32 = 0.003;
+/// The same while the stepping limb is at the top of its arc (transient).
+const SWING_IK_TOLERANCE: f32 = 0.004;
 
 /// Shared read-only inputs of the kernels.
 #[derive(Clone, Copy)]
@@ -140,7 +150,7 @@ pub enum Status {
     Moving,
     /// Reached its goal.
     Arrived,
-    /// A leading limb found no valid grip anywhere within reach.
+    /// No limb found a valid grip anywhere within reach for two gait cycles.
     NoGrip,
 }
 
@@ -165,6 +175,8 @@ pub struct Sloth {
     pub goal: Option<(SupportId, Vec3)>,
     /// Goal tolerance (metres).
     pub goal_tolerance: f32,
+    /// Step searches that found nothing since the last step taken.
+    pub failed_searches: u8,
 }
 
 /// This sloth's trace requests for the next Trace stage and their results.
@@ -253,15 +265,25 @@ fn smoothstep(t: f32) -> f32 {
 /// Body frame for a support: (forward, up toward the support) at an axis point.
 /// Branch: up = world +Y made perpendicular to forward. Trunk: forward = the
 /// axis pointing up (head up), up = from the body toward the axis.
-fn support_frame(kind: SupportKind, tangent_travel: Vec3, axis_tangent: Vec3, body_side: Vec3) -> (Vec3, Vec3) {
+fn support_frame(
+    kind: SupportKind,
+    tangent_travel: Vec3,
+    axis_tangent: Vec3,
+    body_side: Vec3,
+) -> (Vec3, Vec3) {
     match kind {
         SupportKind::Branch => {
             let f = tangent_travel;
-            let up = (Vec3::Y - f * f.dot(Vec3::Y)).normalize_or(Vec3::Z.cross(f).normalize_or(Vec3::X));
+            let up =
+                (Vec3::Y - f * f.dot(Vec3::Y)).normalize_or(Vec3::Z.cross(f).normalize_or(Vec3::X));
             (f, up)
         }
         SupportKind::Trunk => {
-            let f = if axis_tangent.y >= 0.0 { axis_tangent } else { -axis_tangent };
+            let f = if axis_tangent.y >= 0.0 {
+                axis_tangent
+            } else {
+                -axis_tangent
+            };
             let up = -(body_side - f * f.dot(body_side)).normalize_or(f.any_orthonormal_vector());
             (f, up)
         }
@@ -293,13 +315,27 @@ impl Sloth {
         let scene = w.scene();
         let s = scene.support(hint.support);
         let c = project(s, hint.position);
-        let sdir = if c.tangent.dot(hint.forward) >= 0.0 { 1.0 } else { -1.0 };
+        let sdir = if c.tangent.dot(hint.forward) >= 0.0 {
+            1.0
+        } else {
+            -1.0
+        };
         let (f, up) = support_frame(s.kind, c.tangent * sdir, c.tangent, hint.body_side);
-        let dir = if s.kind == SupportKind::Trunk && hint.forward.dot(f) < 0.0 { -1.0 } else { 1.0 };
+        let dir = if s.kind == SupportKind::Trunk && hint.forward.dot(f) < 0.0 {
+            -1.0
+        } else {
+            1.0
+        };
         // Paws above their roots, roughly where the neutral pose puts them.
         let mut limbs = [LimbState {
             phase: LimbPhase::Planted,
-            grip: Grip { point: c.point, normal: Vec3::Y, support: hint.support, u: c.u, sdir },
+            grip: Grip {
+                point: c.point,
+                normal: Vec3::Y,
+                support: hint.support,
+                u: c.u,
+                sdir,
+            },
             from: c.point,
             from_normal: Vec3::Y,
             swing_t: 0.0,
@@ -307,17 +343,31 @@ impl Sloth {
             pose: ChainPose::NEUTRAL,
             root: c.point,
             effector: c.point,
-            search: Search { support: hint.support, sdir, next_u: 0.0, last_u: 0.0, neighbour: u16::MAX, traced: 0 },
+            search: Search {
+                support: hint.support,
+                sdir,
+                next_u: 0.0,
+                last_u: 0.0,
+                neighbour: u16::MAX,
+                traced: 0,
+            },
             due: false,
         }; 4];
         let len = s.length();
         for limb in Limb::ALL {
             let along = w.rig.neutral_tip_ms[limb.index()].z * 0.9;
-            let u = (c.u + along * sdir * f.dot(c.tangent * sdir).signum()).clamp(END_MARGIN, len - END_MARGIN);
+            let u = (c.u + along * sdir * f.dot(c.tangent * sdir).signum())
+                .clamp(END_MARGIN, len - END_MARGIN);
             let a = axis_at(s, u);
             let out = grip_out(s.kind, limb, f, up, w.cfg.trunk_grip_angle_deg.to_radians());
             let l = &mut limbs[limb.index()];
-            l.grip = Grip { point: a.point + out * a.radius, normal: out, support: hint.support, u, sdir };
+            l.grip = Grip {
+                point: a.point + out * a.radius,
+                normal: out,
+                support: hint.support,
+                u,
+                sdir,
+            };
             l.target = l.grip.point;
             l.from = l.grip.point;
             l.from_normal = out;
@@ -326,17 +376,55 @@ impl Sloth {
             body_pos: c.point - up * w.body_offset,
             body_rot: rotation_from(f, up),
             limbs,
-            clock: 0.0,
+            clock: 0.999,
             dir,
             time: 0.0,
             status: Status::Moving,
             goal: goal.map(|(s, p, _)| (s, p)),
             goal_tolerance: goal.map_or(0.3, |g| g.2),
+            failed_searches: 0,
         };
+        // Settle the stance: a few rounds of (body from grips; each grip slid
+        // along the support to where its limb reaches it best, searched in
+        // 1 cm steps around the current one).
+        let cold = CcdParams {
+            max_iterations: 256,
+            ..*w.ccd
+        };
+        for _round in 0..3 {
+            let (pos, rot) = sloth.averaged_body(w);
+            sloth.body_pos = pos;
+            sloth.body_rot = rot;
+            for limb in Limb::ALL {
+                let li = limb.index();
+                let root = w.rig.root_ws(li, pos, rot);
+                let out = sloth.limbs[li].grip.normal;
+                let u0 = sloth.limbs[li].grip.u;
+                let mut best = (f32::INFINITY, u0, sloth.limbs[li].pose);
+                for k in -15..=15 {
+                    let u = (u0 + k as f32 * 0.01).clamp(END_MARGIN, len - END_MARGIN);
+                    let a = axis_at(s, u);
+                    let p = a.point + out * a.radius;
+                    let mut pose = ChainPose::NEUTRAL;
+                    let r = slothsim_rig::solve(&w.rig.chains[li], root, p, &mut pose, &cold);
+                    // Prefer reachable grips nearest the neutral spacing.
+                    let score = r.error + 0.001 * (k as f32).abs();
+                    if score < best.0 {
+                        best = (score, u, pose);
+                    }
+                }
+                let a = axis_at(s, best.1);
+                let l = &mut sloth.limbs[li];
+                l.grip.u = best.1;
+                l.grip.point = a.point + out * a.radius;
+                l.target = l.grip.point;
+                l.from = l.grip.point;
+                l.pose = best.2;
+            }
+        }
         let (pos, rot) = sloth.averaged_body(w);
         sloth.body_pos = pos;
         sloth.body_rot = rot;
-        let cold = CcdParams { max_iterations: 256, ..*w.ccd };
         for _ in 0..4 {
             sloth.solve_limbs_with(w, &cold);
         }
@@ -349,13 +437,20 @@ impl Sloth {
 
     /// Body frame toward the support the fore limbs hold (formula 6 gives forward).
     fn body_frame(&self, w: &World<'_>, t: &[Vec3; 4]) -> (Vec3, Vec3) {
-        let (lf, rf, lh, rh) = (t[Limb::LF.index()], t[Limb::RF.index()], t[Limb::LH.index()], t[Limb::RH.index()]);
+        let (lf, rf, lh, rh) = (
+            t[Limb::LF.index()],
+            t[Limb::RF.index()],
+            t[Limb::LH.index()],
+            t[Limb::RH.index()],
+        );
         // Formula 6: average of the hind → fore directions of both sides.
-        let fwd = ((rf - rh).normalize_or_zero() + (lf - lh).normalize_or_zero()).normalize_or(self.body_rot * Vec3::Z);
+        let fwd = ((rf - rh).normalize_or_zero() + (lf - lh).normalize_or_zero())
+            .normalize_or(self.body_rot * Vec3::Z);
         let mean = (lf + rf + lh + rh) * 0.25;
         let fore_support = self.limbs[Limb::LF.index()].grip.support;
         let s = w.scene().support(fore_support);
-        let on_trunk = s.kind == SupportKind::Trunk && self.limbs[Limb::RF.index()].grip.support == fore_support;
+        let on_trunk = s.kind == SupportKind::Trunk
+            && self.limbs[Limb::RF.index()].grip.support == fore_support;
         let up = if on_trunk {
             let a = project(s, mean);
             let body_side = self.body_pos - a.point;
@@ -378,15 +473,44 @@ impl Sloth {
         (mean - up * w.body_offset, rotation_from(f, up))
     }
 
-    /// Whether every limb can hold `grips` from the body those grips imply.
-    fn stance_reachable(&self, w: &World<'_>, grips: &[Vec3; 4]) -> bool {
+    /// Whether every limb can hold `grips` from the body those grips imply:
+    /// a distance test, then a CCD solve within the joint limits (warm from
+    /// the limb's current pose) that must end within `tol[i]` of the grip.
+    fn stance_reachable(&self, w: &World<'_>, grips: &[Vec3; 4], tol: [f32; 4]) -> bool {
         let (pos, rot) = self.body_for_targets(w, grips);
         let max = w.rig.reach * w.cfg.max_reach_fraction;
         let min = w.rig.reach * MIN_REACH_FRACTION;
         (0..4).all(|i| {
-            let d = Vec3::from(w.rig.root_ws(i, pos, rot).position).distance(grips[i]);
-            d <= max && d >= min
+            let root = w.rig.root_ws(i, pos, rot);
+            let d = Vec3::from(root.position).distance(grips[i]);
+            if d > max || d < min {
+                return false;
+            }
+            let mut pose = self.limbs[i].pose;
+            let r = slothsim_rig::solve(&w.rig.chains[i], root, grips[i], &mut pose, w.ccd);
+            r.error <= tol[i]
         })
+    }
+
+    /// Whether limb `li` can step to `grip`: with the stepping limb at the top
+    /// of its arc the others still reach their grips (transient tolerance),
+    /// and at the end every limb reaches its grip (the stepping limb tightly).
+    fn step_reachable(&self, w: &World<'_>, li: usize, grip: Vec3) -> bool {
+        let mut grips = self.limbs.map(|l| l.grip.point);
+        let from = grips[li];
+        // The arc's highest point, as `body_average` will draw it (the new
+        // grip's normal is not known before the trace: use the current one).
+        let n = self.limbs[li].grip.normal;
+        grips[li] = (from + grip) * 0.5 + n * w.cfg.swing_clearance_m;
+        let mut mid_tol = [SWING_IK_TOLERANCE; 4];
+        mid_tol[li] = f32::INFINITY;
+        if !self.stance_reachable(w, &grips, mid_tol) {
+            return false;
+        }
+        grips[li] = grip;
+        let mut end_tol = [HOLD_IK_TOLERANCE; 4];
+        end_tol[li] = STANCE_IK_TOLERANCE;
+        self.stance_reachable(w, &grips, end_tol)
     }
 
     /// Travel vector (unit): body forward × dir.
@@ -407,22 +531,29 @@ impl Sloth {
             if chosen[li] || self.limbs[li].phase != LimbPhase::Searching {
                 continue;
             }
-            let Ok(Some(hit)) = batch.results[i] else { continue };
+            let Ok(Some(hit)) = batch.results[i] else {
+                continue;
+            };
             if hit.support != m.support || hit.normal.dot(m.out) < 0.3 {
                 continue;
             }
-            let mut grips = self.limbs.map(|l| l.grip.point);
-            grips[li] = hit.point;
-            if !self.stance_reachable(w, &grips) {
+            if !self.step_reachable(w, li, hit.point) {
                 continue;
             }
             chosen[li] = true;
             let l = &mut self.limbs[li];
             l.from = l.grip.point;
             l.from_normal = l.grip.normal;
-            l.grip = Grip { point: hit.point, normal: hit.normal, support: m.support, u: m.u, sdir: m.sdir };
+            l.grip = Grip {
+                point: hit.point,
+                normal: hit.normal,
+                support: m.support,
+                u: m.u,
+                sdir: m.sdir,
+            };
             l.phase = LimbPhase::Swinging;
             l.swing_t = 0.0;
+            self.failed_searches = 0;
         }
         batch.len = 0;
         for li in 0..4 {
@@ -466,14 +597,24 @@ impl Sloth {
                 return;
             }
             // This support is exhausted: try the next neighbour.
+            if std::env::var("SLOTH_DEBUG").is_ok() {
+                eprintln!(
+                    "t={:.2} {:?} exhausted {:?} traced {}",
+                    self.time, limb, self.limbs[li].search.support, self.limbs[li].search.traced
+                );
+            }
             if !self.next_neighbour(w, li) {
                 // Nothing anywhere: stay planted.
                 let l = &mut self.limbs[li];
                 l.phase = LimbPhase::Planted;
                 l.due = false;
-                if limb.is_fore() && self.status == Status::Moving {
+                self.failed_searches = self.failed_searches.saturating_add(1);
+                if self.failed_searches >= STOP_AFTER_FAILED_SEARCHES
+                    && self.status == Status::Moving
+                {
                     self.status = Status::NoGrip;
                 }
+                let _ = limb;
                 return;
             }
         }
@@ -490,7 +631,10 @@ impl Sloth {
             n => n as usize,
         };
         // The supports the fore limbs hold, for "fore limbs transfer first".
-        let fore_supports = [self.limbs[Limb::LF.index()].grip.support, self.limbs[Limb::RF.index()].grip.support];
+        let fore_supports = [
+            self.limbs[Limb::LF.index()].grip.support,
+            self.limbs[Limb::RF.index()].grip.support,
+        ];
         let fore_on_cur = fore_supports.contains(&cur.support);
         while k < neighbours.len() {
             let sid = neighbours[k];
@@ -503,13 +647,30 @@ impl Sloth {
             }
             let root = self.limbs[li].root;
             let entry = project(s2, (cur.point + root) * 0.5);
+            if std::env::var("SLOTH_DEBUG").is_ok() {
+                eprintln!(
+                    "t={:.2} {:?} neighbour {:?} entry u {:.2} dist {:.3}",
+                    self.time,
+                    limb,
+                    sid,
+                    entry.u,
+                    entry.point.distance(root)
+                );
+            }
             if entry.point.distance(root) > w.rig.reach {
                 continue;
             }
             let sdir = self.choose_sdir(w, sid, entry.tangent);
             let u0 = entry.u + sdir * w.cfg.search_distance_m;
             let last = entry.u - sdir * 0.15;
-            self.limbs[li].search = Search { support: sid, sdir, next_u: u0, last_u: last, neighbour: k as u16, traced: self.limbs[li].search.traced };
+            self.limbs[li].search = Search {
+                support: sid,
+                sdir,
+                next_u: u0,
+                last_u: last,
+                neighbour: k as u16,
+                traced: self.limbs[li].search.traced,
+            };
             return true;
         }
         self.limbs[li].search.neighbour = k as u16;
@@ -528,13 +689,24 @@ impl Sloth {
                 return if g.u >= here.u { 1.0 } else { -1.0 };
             }
         }
-        let want = if s.kind == SupportKind::Trunk { Vec3::Y * self.dir } else { self.travel() };
+        let want = if s.kind == SupportKind::Trunk {
+            Vec3::Y * self.dir
+        } else {
+            self.travel()
+        };
         if tangent.dot(want) >= 0.0 { 1.0 } else { -1.0 }
     }
 
     /// A candidate at arc length `u` of support `sid`, if it passes the cheap
     /// checks (step length, leg order, reach at the predicted stance): its trace.
-    fn candidate(&self, w: &World<'_>, li: usize, sid: SupportId, u: f32, sdir: f32) -> Option<(TraceRequest, Candidate)> {
+    fn candidate(
+        &self,
+        w: &World<'_>,
+        li: usize,
+        sid: SupportId,
+        u: f32,
+        sdir: f32,
+    ) -> Option<(TraceRequest, Candidate)> {
         let limb = Limb::ALL[li];
         let s = w.scene().support(sid);
         let a = axis_at(s, u);
@@ -548,27 +720,52 @@ impl Sloth {
         // Step length (along the travel direction) within [min, max].
         let step = (approx - cur).dot(travel);
         let dist = approx.distance(cur);
+        let dbg = std::env::var("SLOTH_DEBUG2").is_ok();
         if step < w.cfg.min_step_m || dist > w.cfg.max_step_m {
+            if dbg {
+                eprintln!("{:?} u={u:.2} step {step:.3} dist {dist:.3}", limb);
+            }
             return None;
         }
         // Leg order: hind never ahead of a fore limb; never behind the opposite limb of the girdle.
         let proj = |p: Vec3| p.dot(body_fwd);
-        let fore_min = proj(self.limbs[Limb::LF.index()].grip.point).min(proj(self.limbs[Limb::RF.index()].grip.point));
+        let fore_min = proj(self.limbs[Limb::LF.index()].grip.point)
+            .min(proj(self.limbs[Limb::RF.index()].grip.point));
         if !limb.is_fore() && proj(approx) > fore_min - 0.05 {
+            if dbg {
+                eprintln!("{:?} u={u:.2} order", limb);
+            }
             return None;
         }
         let opp = self.limbs[limb.opposite().index()].grip.point;
         if (approx - opp).dot(travel) < 0.0 {
+            if dbg {
+                eprintln!("{:?} u={u:.2} behind", limb);
+            }
             return None;
         }
-        let mut grips = self.limbs.map(|l| l.grip.point);
-        grips[li] = approx;
-        if !self.stance_reachable(w, &grips) {
+        if !self.step_reachable(w, li, approx) {
+            if dbg {
+                eprintln!("{:?} u={u:.2} unreachable", limb);
+            }
             return None;
         }
         let origin = a.point + out * (a.radius + TRACE_STANDOFF);
-        let req = TraceRequest::Line(LineTrace { origin, dir: -out, max_dist: TRACE_STANDOFF + a.radius });
-        Some((req, Candidate { limb: li as u8, support: sid, u, sdir, out }))
+        let req = TraceRequest::Line(LineTrace {
+            origin,
+            dir: -out,
+            max_dist: TRACE_STANDOFF + a.radius,
+        });
+        Some((
+            req,
+            Candidate {
+                limb: li as u8,
+                support: sid,
+                u,
+                sdir,
+                out,
+            },
+        ))
     }
 
     // ---------------------------------------------------------------- stage 3
@@ -582,7 +779,8 @@ impl Sloth {
                     let dur = w.cfg.swing_duration(Limb::ALL[li]);
                     l.swing_t = (l.swing_t + dt / dur).min(1.0);
                     let s = smoothstep(l.swing_t);
-                    let n = (l.from_normal + l.grip.normal).normalize_or(self.body_rot * Vec3::NEG_Y);
+                    let n =
+                        (l.from_normal + l.grip.normal).normalize_or(self.body_rot * Vec3::NEG_Y);
                     let lift = w.cfg.swing_clearance_m * (std::f32::consts::PI * l.swing_t).sin();
                     l.target = l.from.lerp(l.grip.point, s) + n * lift;
                     if l.swing_t >= 1.0 {
@@ -592,10 +790,17 @@ impl Sloth {
                 }
             }
         }
+        // Formula 7's position is already continuous (swing arcs are), so it
+        // is used as is: lagging it would pull planted limbs off their grips.
+        // The rotation (formula 6) is smoothed against jitter at touch-down.
         let (pos, rot) = self.averaged_body(w);
-        let k = if w.cfg.body_smoothing_s > 0.0 { 1.0 - (-dt / w.cfg.body_smoothing_s).exp() } else { 1.0 };
-        self.body_pos = self.body_pos.lerp(pos, k);
+        let k = if w.cfg.body_smoothing_s > 0.0 {
+            1.0 - (-dt / w.cfg.body_smoothing_s).exp()
+        } else {
+            1.0
+        };
         self.body_rot = self.body_rot.slerp(rot, k).normalize();
+        self.body_pos = pos;
     }
 
     // ---------------------------------------------------------------- stage 4
@@ -610,8 +815,21 @@ impl Sloth {
         for li in 0..4 {
             let root = w.rig.root_ws(li, self.body_pos, self.body_rot);
             let l = &mut self.limbs[li];
-            let r = slothsim_rig::solve(&w.rig.chains[li], root, l.target, &mut l.pose, params);
+            // A warm solve may stop short when its smoothness guard caps a
+            // large joint move; resume from where it stopped (rare).
+            let mut r = slothsim_rig::solve(&w.rig.chains[li], root, l.target, &mut l.pose, params);
             iterations += r.iterations;
+            for _ in 0..3 {
+                if r.error <= params.tolerance {
+                    break;
+                }
+                let prev = r.error;
+                r = slothsim_rig::solve(&w.rig.chains[li], root, l.target, &mut l.pose, params);
+                iterations += r.iterations;
+                if r.error > prev * 0.9 {
+                    break;
+                }
+            }
             l.root = root.position.into();
             l.effector = w.rig.chains[li].fk(root, &l.pose)[4];
         }
@@ -627,7 +845,8 @@ impl Sloth {
         if let Some((gs, gp)) = self.goal {
             let s = w.scene().support(gs);
             let a = project(s, self.body_pos);
-            if a.point.distance(gp) <= self.goal_tolerance && a.point.distance(self.body_pos) < 0.6 {
+            if a.point.distance(gp) <= self.goal_tolerance && a.point.distance(self.body_pos) < 0.6
+            {
                 self.status = Status::Arrived;
             }
         }
@@ -638,13 +857,21 @@ impl Sloth {
         self.clock = (self.clock + dt / w.cfg.cycle_duration()).fract();
         let offsets = w.cfg.phase_offsets();
         for (li, &off) in offsets.iter().enumerate() {
-            let crossed = if self.clock >= prev { off > prev && off <= self.clock } else { off > prev || off <= self.clock };
+            let crossed = if self.clock >= prev {
+                off > prev && off <= self.clock
+            } else {
+                off > prev || off <= self.clock
+            };
             if crossed {
                 self.limbs[li].due = true;
             }
         }
         for li in 0..4 {
-            let planted = self.limbs.iter().filter(|l| l.phase != LimbPhase::Swinging).count();
+            let planted = self
+                .limbs
+                .iter()
+                .filter(|l| l.phase != LimbPhase::Swinging)
+                .count();
             let l = self.limbs[li];
             if !l.due || l.phase != LimbPhase::Planted || planted < 3 {
                 continue;
@@ -689,7 +916,8 @@ impl Sloth {
         let hips = to_ws(w.rig.hips_ms);
         let torso = [to_ws(w.rig.torso_ms[0]), to_ws(w.rig.torso_ms[1])];
         let fore = scene.support(self.limbs[Limb::LF.index()].grip.support);
-        let on_trunk = fore.kind == SupportKind::Trunk && self.limbs[Limb::RF.index()].grip.support == fore.id;
+        let on_trunk =
+            fore.kind == SupportKind::Trunk && self.limbs[Limb::RF.index()].grip.support == fore.id;
         let mut penetration: f32 = 0.0;
         let mut seen = [SupportId(u32::MAX); 4];
         for (k, l) in self.limbs.iter().enumerate() {
@@ -705,11 +933,20 @@ impl Sloth {
         let goal_distance_m = match self.goal {
             Some((gs, gp)) => {
                 let a = project(scene.support(gs), self.body_pos);
-                if a.point.distance(self.body_pos) < 0.6 { a.point.distance(gp) } else { self.body_pos.distance(gp) }
+                if a.point.distance(self.body_pos) < 0.6 {
+                    a.point.distance(gp)
+                } else {
+                    self.body_pos.distance(gp)
+                }
             }
             None => f32::INFINITY,
         };
-        let has_nan = !(self.body_pos.is_finite() && self.body_rot.is_finite() && self.limbs.iter().all(|l| l.pose.is_finite() && l.target.is_finite()));
+        let has_nan = !(self.body_pos.is_finite()
+            && self.body_rot.is_finite()
+            && self
+                .limbs
+                .iter()
+                .all(|l| l.pose.is_finite() && l.target.is_finite()));
         SlothObservation {
             time_s: self.time,
             body_pos: self.body_pos,
@@ -719,7 +956,11 @@ impl Sloth {
             on_trunk,
             limbs,
             penetration_m: penetration,
-            goal_distance_m: if goal_distance_m.is_finite() { goal_distance_m } else { f32::MAX },
+            goal_distance_m: if goal_distance_m.is_finite() {
+                goal_distance_m
+            } else {
+                f32::MAX
+            },
             has_nan,
         }
     }
@@ -759,7 +1000,11 @@ fn segment_distance(p0: Vec3, p1: Vec3, q0: Vec3, q1: Vec3) -> (f32, f32) {
         } else {
             let b = d1.dot(d2);
             let denom = a * e - b * b;
-            let mut s0 = if denom > 1e-12 { ((b * f - c * e) / denom).clamp(0.0, 1.0) } else { 0.0 };
+            let mut s0 = if denom > 1e-12 {
+                ((b * f - c * e) / denom).clamp(0.0, 1.0)
+            } else {
+                0.0
+            };
             let mut t0 = (b * s0 + f) / e;
             if t0 < 0.0 {
                 t0 = 0.0;

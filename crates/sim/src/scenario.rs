@@ -70,7 +70,10 @@ pub struct ScenarioResult {
 }
 
 /// Runs one scenario to the goal, a stop, or the time limit.
-pub fn run_scenario(spec: &ScenarioSpec, rig: &Rig) -> Result<ScenarioResult, slothsim_gait::ConfigError> {
+pub fn run_scenario(
+    spec: &ScenarioSpec,
+    rig: &Rig,
+) -> Result<ScenarioResult, slothsim_gait::ConfigError> {
     let preset = &spec.preset;
     let mut start = preset.start;
     let mut goal = preset.goal;
@@ -91,9 +94,20 @@ pub fn run_scenario(spec: &ScenarioSpec, rig: &Rig) -> Result<ScenarioResult, sl
         forward: start.forward,
         body_side: start.body_side,
     };
-    spawn_sloth(&mut world, 0, &hint, Some((goal.support, goal.point, goal.tolerance)));
+    spawn_sloth(
+        &mut world,
+        0,
+        &hint,
+        Some((goal.support, goal.point, goal.tolerance)),
+    );
     let mut schedule = crate::build_schedule();
-    let mut judge = Judge::new(Tolerances { goal_tolerance_m: goal.tolerance, ..spec.tolerances }, time_limit_s);
+    let mut judge = Judge::new(
+        Tolerances {
+            goal_tolerance_m: goal.tolerance,
+            ..spec.tolerances
+        },
+        time_limit_s,
+    );
     let mut stats = GaitStats::new();
     let mut trail = Vec::new();
     let mut observations = Vec::new();

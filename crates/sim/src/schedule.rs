@@ -43,14 +43,24 @@ pub struct StageTimings {
 
 impl StageTimings {
     /// Stage names in column order.
-    pub const NAMES: [&'static str; 5] = ["trace", "step_search", "body_average", "ccd_solve", "transitions"];
+    pub const NAMES: [&'static str; 5] = [
+        "trace",
+        "step_search",
+        "body_average",
+        "ccd_solve",
+        "transitions",
+    ];
 }
 
 fn ms(start: Instant) -> f64 {
     start.elapsed().as_secs_f64() * 1e3
 }
 
-fn trace_stage(loco: Res<Locomotion>, mut q: Query<&mut Traces>, mut timings: ResMut<StageTimings>) {
+fn trace_stage(
+    loco: Res<Locomotion>,
+    mut q: Query<&mut Traces>,
+    mut timings: ResMut<StageTimings>,
+) {
     let t = Instant::now();
     let query = loco.traces.query();
     q.par_iter_mut().for_each(|mut tr| tr.0.run(&query));
@@ -58,14 +68,24 @@ fn trace_stage(loco: Res<Locomotion>, mut q: Query<&mut Traces>, mut timings: Re
     timings.last[0] = ms(t);
 }
 
-fn step_search_stage(loco: Res<Locomotion>, mut q: Query<(&mut SlothState, &mut Traces)>, mut timings: ResMut<StageTimings>) {
+fn step_search_stage(
+    loco: Res<Locomotion>,
+    mut q: Query<(&mut SlothState, &mut Traces)>,
+    mut timings: ResMut<StageTimings>,
+) {
     let t = Instant::now();
     let w = loco.view();
-    q.par_iter_mut().for_each(|(mut s, mut tr)| s.0.step_search(&w, &mut tr.0));
+    q.par_iter_mut()
+        .for_each(|(mut s, mut tr)| s.0.step_search(&w, &mut tr.0));
     timings.last[1] = ms(t);
 }
 
-fn body_average_stage(loco: Res<Locomotion>, clock: Res<SimClock>, mut q: Query<&mut SlothState>, mut timings: ResMut<StageTimings>) {
+fn body_average_stage(
+    loco: Res<Locomotion>,
+    clock: Res<SimClock>,
+    mut q: Query<&mut SlothState>,
+    mut timings: ResMut<StageTimings>,
+) {
     let t = Instant::now();
     let w = loco.view();
     let dt = clock.dt;
@@ -73,7 +93,11 @@ fn body_average_stage(loco: Res<Locomotion>, clock: Res<SimClock>, mut q: Query<
     timings.last[2] = ms(t);
 }
 
-fn ccd_stage(loco: Res<Locomotion>, mut q: Query<&mut SlothState>, mut timings: ResMut<StageTimings>) {
+fn ccd_stage(
+    loco: Res<Locomotion>,
+    mut q: Query<&mut SlothState>,
+    mut timings: ResMut<StageTimings>,
+) {
     let t = Instant::now();
     let w = loco.view();
     q.par_iter_mut().for_each(|mut s| {
@@ -91,7 +115,8 @@ fn transitions_stage(
     let t = Instant::now();
     let w = loco.view();
     let dt = clock.dt;
-    q.par_iter_mut().for_each(|(mut s, mut tr)| s.0.transitions(&w, dt, &mut tr.0));
+    q.par_iter_mut()
+        .for_each(|(mut s, mut tr)| s.0.transitions(&w, dt, &mut tr.0));
     clock.frame += 1;
     timings.last[4] = ms(t);
     let last = timings.last;

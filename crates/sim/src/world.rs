@@ -1,7 +1,9 @@
 //! Components, resources and world construction.
 
 use bevy_ecs::prelude::*;
-use slothsim_gait::{Adjacency, LocomotionConfig, RigData, Sloth, SpawnHint, TraceBatch, World as LocoWorld};
+use slothsim_gait::{
+    Adjacency, LocomotionConfig, RigData, Sloth, SpawnHint, TraceBatch, World as LocoWorld,
+};
 use slothsim_rig::{CcdParams, Rig};
 use slothsim_scene::{SupportId, TraceScene};
 
@@ -36,12 +38,29 @@ pub struct Locomotion {
 
 impl Locomotion {
     /// Validates `cfg` against the rig and builds the shared data.
-    pub fn new(cfg: LocomotionConfig, rig: &Rig, traces: TraceScene) -> Result<Self, slothsim_gait::ConfigError> {
+    pub fn new(
+        cfg: LocomotionConfig,
+        rig: &Rig,
+        traces: TraceScene,
+    ) -> Result<Self, slothsim_gait::ConfigError> {
         let rig = RigData::new(rig);
         cfg.validate(rig.reach)?;
-        let body_offset = cfg.body_vertical_offset_m.unwrap_or_else(|| rig.auto_body_offset());
+        let body_offset = cfg
+            .body_vertical_offset_m
+            .unwrap_or_else(|| rig.auto_body_offset());
         let adjacency = Adjacency::build(traces.query(), 0.05);
-        Ok(Locomotion { cfg, rig, body_offset, traces, adjacency, ccd: CcdParams::default() })
+        let ccd = CcdParams {
+            min_improvement: 1e-7,
+            ..CcdParams::default()
+        };
+        Ok(Locomotion {
+            cfg,
+            rig,
+            body_offset,
+            traces,
+            adjacency,
+            ccd,
+        })
     }
 
     /// The kernels' view.
@@ -76,10 +95,17 @@ pub fn new_world(loco: Locomotion, dt: f32) -> World {
 }
 
 /// Spawns one sloth (its limbs gripping around `hint`).
-pub fn spawn_sloth(world: &mut World, id: u32, hint: &SpawnHint, goal: Option<(SupportId, glam::Vec3, f32)>) -> Entity {
+pub fn spawn_sloth(
+    world: &mut World,
+    id: u32,
+    hint: &SpawnHint,
+    goal: Option<(SupportId, glam::Vec3, f32)>,
+) -> Entity {
     let sloth = {
         let loco = world.resource::<Locomotion>();
         Sloth::spawn(&loco.view(), hint, goal)
     };
-    world.spawn((SlothId(id), SlothState(sloth), Traces::default())).id()
+    world
+        .spawn((SlothId(id), SlothState(sloth), Traces::default()))
+        .id()
 }
