@@ -247,7 +247,8 @@ pub fn matrix(args: MatrixArgs) -> Result<bool> {
     let cfg = load_config(args.profile, args.config.as_deref())?;
     let rig = Rig::sloth();
     // (preset, sweep range, thesis range: strict interior must pass)
-    let sweeps: [(PresetKind, Option<[f32; 2]>, Option<[f32; 2]>); 6] = [
+    type Sweep = (PresetKind, Option<[f32; 2]>, Option<[f32; 2]>);
+    let sweeps: [Sweep; 6] = [
         (PresetKind::Turn, Some([60.0, 180.0]), Some([95.0, 175.0])),
         (
             PresetKind::HeightChange,
@@ -265,10 +266,7 @@ pub fn matrix(args: MatrixArgs) -> Result<bool> {
     ];
     let mut rows = Vec::new();
     let mut all_ok = true;
-    println!(
-        "{:<14} {:>8}  {:<6} {}",
-        "scenario", "param", "result", "notes"
-    );
+    println!("{:<14} {:>8}  {:<6} notes", "scenario", "param", "result");
     for (kind, sweep, thesis) in sweeps {
         let mut runs = Vec::new();
         let params: Vec<Option<f32>> = match sweep {
@@ -331,10 +329,7 @@ pub fn matrix(args: MatrixArgs) -> Result<bool> {
         });
     }
     println!();
-    println!(
-        "{:<14} {:<22} {}",
-        "scenario", "thesis (strict)", "passing here"
-    );
+    println!("{:<14} {:<22} passing here", "scenario", "thesis (strict)");
     for row in &rows {
         let thesis = row
             .thesis_range

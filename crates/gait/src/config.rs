@@ -117,7 +117,7 @@ impl LocomotionConfig {
             body_vertical_offset_m: None,
             body_smoothing_s: 0.05,
             swing_clearance_m: 0.05,
-            trunk_grip_angle_deg: 45.0,
+            trunk_grip_angle_deg: 60.0,
             max_reach_fraction: 0.97,
             hind_transfer_trace_cap_m: 0.10,
             offset_back_m: 0.15,

@@ -597,12 +597,6 @@ impl Sloth {
                 return;
             }
             // This support is exhausted: try the next neighbour.
-            if std::env::var("SLOTH_DEBUG").is_ok() {
-                eprintln!(
-                    "t={:.2} {:?} exhausted {:?} traced {}",
-                    self.time, limb, self.limbs[li].search.support, self.limbs[li].search.traced
-                );
-            }
             if !self.next_neighbour(w, li) {
                 // Nothing anywhere: stay planted.
                 let l = &mut self.limbs[li];
@@ -647,16 +641,6 @@ impl Sloth {
             }
             let root = self.limbs[li].root;
             let entry = project(s2, (cur.point + root) * 0.5);
-            if std::env::var("SLOTH_DEBUG").is_ok() {
-                eprintln!(
-                    "t={:.2} {:?} neighbour {:?} entry u {:.2} dist {:.3}",
-                    self.time,
-                    limb,
-                    sid,
-                    entry.u,
-                    entry.point.distance(root)
-                );
-            }
             if entry.point.distance(root) > w.rig.reach {
                 continue;
             }
@@ -720,11 +704,7 @@ impl Sloth {
         // Step length (along the travel direction) within [min, max].
         let step = (approx - cur).dot(travel);
         let dist = approx.distance(cur);
-        let dbg = std::env::var("SLOTH_DEBUG2").is_ok();
         if step < w.cfg.min_step_m || dist > w.cfg.max_step_m {
-            if dbg {
-                eprintln!("{:?} u={u:.2} step {step:.3} dist {dist:.3}", limb);
-            }
             return None;
         }
         // Leg order: hind never ahead of a fore limb; never behind the opposite limb of the girdle.
@@ -732,22 +712,13 @@ impl Sloth {
         let fore_min = proj(self.limbs[Limb::LF.index()].grip.point)
             .min(proj(self.limbs[Limb::RF.index()].grip.point));
         if !limb.is_fore() && proj(approx) > fore_min - 0.05 {
-            if dbg {
-                eprintln!("{:?} u={u:.2} order", limb);
-            }
             return None;
         }
         let opp = self.limbs[limb.opposite().index()].grip.point;
         if (approx - opp).dot(travel) < 0.0 {
-            if dbg {
-                eprintln!("{:?} u={u:.2} behind", limb);
-            }
             return None;
         }
         if !self.step_reachable(w, li, approx) {
-            if dbg {
-                eprintln!("{:?} u={u:.2} unreachable", limb);
-            }
             return None;
         }
         let origin = a.point + out * (a.radius + TRACE_STANDOFF);

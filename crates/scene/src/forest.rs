@@ -290,7 +290,11 @@ fn grow_branch(
         if p.y < MIN_BRANCH_HEIGHT {
             // Level out instead of growing into the ground.
             pitch = pitch.max(0.0);
-            let d = Vec3::new(yaw.cos() * pitch.cos(), pitch.sin(), yaw.sin() * pitch.cos());
+            let d = Vec3::new(
+                yaw.cos() * pitch.cos(),
+                pitch.sin(),
+                yaw.sin() * pitch.cos(),
+            );
             p = *nodes.last().expect("nodes start non-empty") + d * seg_len;
         }
         nodes.push(p);
