@@ -50,7 +50,7 @@ pub struct ScenarioArgs {
     #[arg(long, default_value_t = 1.0 / 60.0)]
     dt: f32,
     /// Give up after this many simulated seconds (default: from the path length).
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     seconds: Option<f32>,
     /// Output folder for scenario.json.
     #[arg(long)]
