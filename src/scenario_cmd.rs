@@ -84,7 +84,13 @@ pub fn load_config(profile: ProfileArg, file: Option<&Path>) -> Result<Locomotio
     }
 }
 
-fn preset_value(kind: PresetKind, angle: Option<f32>, param: Option<f32>) -> Result<Option<f32>> {
+/// The preset parameter from `--angle` (degrees) or `--param` (metres), whichever
+/// the preset takes; an error names the right flag.
+pub fn preset_value(
+    kind: PresetKind,
+    angle: Option<f32>,
+    param: Option<f32>,
+) -> Result<Option<f32>> {
     Ok(match (kind.parameter(), angle, param) {
         (_, Some(_), Some(_)) => bail!("give either --angle or --param, not both"),
         (Some((name, unit, ..)), Some(_), None) if unit != "deg" => {

@@ -108,22 +108,7 @@ fn export(args: ExportArgs) -> Result<()> {
         generate_forest(&args.forest.config()?)?
     } else {
         let kind = PresetKind::parse(&args.preset)?;
-        let value = match (kind.parameter(), args.angle, args.param) {
-            (_, Some(_), Some(_)) => bail!("give either --angle or --param, not both"),
-            (Some((name, unit, ..)), Some(_), None) if unit != "deg" => {
-                bail!(
-                    "preset `{}` takes --param ({name} in {unit}), not --angle",
-                    kind.name()
-                )
-            }
-            (Some((name, "deg", ..)), None, Some(_)) => {
-                bail!(
-                    "preset `{}` takes --angle ({name} in degrees), not --param",
-                    kind.name()
-                )
-            }
-            (_, a, p) => a.or(p),
-        };
+        let value = crate::scenario_cmd::preset_value(kind, args.angle, args.param)?;
         Preset::new(kind, value)?.scene
     };
     write_scene(&scene, &args.out)?;
