@@ -60,14 +60,24 @@ fn trunk_climb_up_head_up() {
 }
 
 #[test]
-fn height_change_gentle_climb_reaches_the_next_branch() {
-    let r = run(
-        "height_change",
-        Some(160.0),
-        TrunkVariant::Up,
-        Profile::Free,
-    );
-    assert_measures_within_issue_limits(&r);
+fn height_change_inside_the_thesis_range_reaches_the_next_branch() {
+    for angle in [140.0, 160.0, 195.0] {
+        let r = run(
+            "height_change",
+            Some(angle),
+            TrunkVariant::Up,
+            Profile::Free,
+        );
+        assert_measures_within_issue_limits(&r);
+    }
+}
+
+#[test]
+fn turn_onto_the_next_branch() {
+    for angle in [110.0, 160.0, 180.0] {
+        let r = run("turn", Some(angle), TrunkVariant::Up, Profile::Free);
+        assert_measures_within_issue_limits(&r);
+    }
 }
 
 #[test]
