@@ -568,7 +568,6 @@ impl Sloth {
     /// exhausted; gives up (limb stays planted) when nothing is left.
     fn queue_candidates(&mut self, w: &World<'_>, li: usize, batch: &mut TraceBatch) {
         let scene = w.scene();
-        let limb = Limb::ALL[li];
         let mut queued = 0;
         loop {
             let sr = self.limbs[li].search;
@@ -608,7 +607,6 @@ impl Sloth {
                 {
                     self.status = Status::NoGrip;
                 }
-                let _ = limb;
                 return;
             }
         }
