@@ -48,7 +48,9 @@ impl Locomotion {
         let body_offset = cfg
             .body_vertical_offset_m
             .unwrap_or_else(|| rig.auto_body_offset());
-        let adjacency = Adjacency::build(traces.query(), 0.05);
+        // Neighbours: supports a limb can reach from this one (parallel branches
+        // included), not only those that touch it.
+        let adjacency = Adjacency::build(traces.query(), rig.reach);
         let ccd = CcdParams {
             min_improvement: 1e-7,
             ..CcdParams::default()
