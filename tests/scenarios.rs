@@ -161,3 +161,13 @@ fn scenario_bad_input_is_a_clear_error() {
         assert!(err.contains(needle), "{args:?}: {err}");
     }
 }
+
+#[test]
+fn parallel_branches_change_from_one_to_the_other() {
+    for gap in [0.15, 0.25] {
+        let r = run("parallel", Some(gap), TrunkVariant::Up, Profile::Free);
+        assert_measures_within_issue_limits(&r);
+        // The goal is on the second branch: the sloth ends there.
+        assert_eq!(r.observations.last().unwrap().limbs[0].support.0, 1);
+    }
+}

@@ -702,7 +702,14 @@ impl Sloth {
         // Step length (along the travel direction) within [min, max].
         let step = (approx - cur).dot(travel);
         let dist = approx.distance(cur);
-        if step < w.cfg.min_step_m || dist > w.cfg.max_step_m {
+        // Changing support may be a sideways step (parallel branches): it only
+        // must not go backwards.
+        let min_step = if sid == self.limbs[li].grip.support {
+            w.cfg.min_step_m
+        } else {
+            0.0
+        };
+        if step < min_step || dist > w.cfg.max_step_m {
             return None;
         }
         // Leg order: hind never ahead of a fore limb; never behind the opposite limb of the girdle.
