@@ -111,8 +111,6 @@ pub struct Search {
     /// Index of the next neighbour support to try once this one is exhausted
     /// (`u16::MAX` = searching the current support).
     pub neighbour: u16,
-    /// Candidates traced so far.
-    pub traced: u16,
 }
 
 /// One limb.
@@ -349,15 +347,14 @@ impl Sloth {
                 next_u: 0.0,
                 last_u: 0.0,
                 neighbour: u16::MAX,
-                traced: 0,
             },
             due: false,
         }; 4];
         let len = s.length();
         for limb in Limb::ALL {
+            // `along` metres ahead along the body's forward axis.
             let along = w.rig.neutral_tip_ms[limb.index()].z * 0.9;
-            let u = (c.u + along * sdir * f.dot(c.tangent * sdir).signum())
-                .clamp(END_MARGIN, len - END_MARGIN);
+            let u = (c.u + along * f.dot(c.tangent).signum()).clamp(END_MARGIN, len - END_MARGIN);
             let a = axis_at(s, u);
             let out = grip_out(s.kind, limb, f, up, w.cfg.trunk_grip_angle_deg.to_radians());
             let l = &mut limbs[limb.index()];
@@ -591,7 +588,6 @@ impl Sloth {
                 }
             }
             self.limbs[li].search.next_u = u;
-            self.limbs[li].search.traced += queued as u16;
             if queued > 0 || batch.len == MAX_TRACES {
                 return;
             }
@@ -651,7 +647,6 @@ impl Sloth {
                 next_u: u0,
                 last_u: last,
                 neighbour: k as u16,
-                traced: self.limbs[li].search.traced,
             };
             return true;
         }
@@ -861,7 +856,6 @@ impl Sloth {
                 next_u: g.u + g.sdir * w.cfg.search_distance_m,
                 last_u: g.u,
                 neighbour: u16::MAX,
-                traced: 0,
             };
             self.queue_candidates(w, li, batch);
         }
