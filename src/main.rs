@@ -1,5 +1,6 @@
 //! The `slothsim` command line.
 
+mod run_cmd;
 mod scenario_cmd;
 mod scene_cmd;
 
@@ -22,6 +23,8 @@ enum Command {
     Scene(scene_cmd::SceneCommand),
     /// Run one sloth on a thesis scenario preset and judge it (exit 0 pass, 1 fail).
     Scenario(scenario_cmd::ScenarioArgs),
+    /// The main job: a crowd of wandering sloths on a forest (stats.json, timings.csv).
+    Run(run_cmd::RunArgs),
     /// Sweep every preset over its angle range (thesis Table 7); exit 0 when the thesis ranges pass.
     Matrix(scenario_cmd::MatrixArgs),
 }
@@ -32,6 +35,7 @@ fn main() -> ExitCode {
         Command::Scene(cmd) => scene_cmd::run(cmd).map(|()| true),
         Command::Scenario(args) => scenario_cmd::scenario(args),
         Command::Matrix(args) => scenario_cmd::matrix(args),
+        Command::Run(args) => run_cmd::run(args),
     };
     match result {
         Ok(true) => ExitCode::SUCCESS,

@@ -9,11 +9,13 @@ pub mod observe;
 
 pub use observe::{LimbObservation, SlothObservation};
 pub mod config;
+pub mod crowd;
 pub mod path;
 pub mod rigdata;
 pub mod sloth;
 
 pub use config::{ConfigError, LocomotionConfig, Profile, Sequence};
+pub use crowd::CrowdGrid;
 pub use path::{Adjacency, AxisPoint, axis_at, project};
 pub use rigdata::RigData;
 pub use sloth::{Grip, LimbPhase, LimbState, Sloth, SpawnHint, Status, TraceBatch, World};

@@ -23,6 +23,7 @@ use slothsim_scene::{
 };
 
 use crate::config::LocomotionConfig;
+use crate::crowd::CrowdGrid;
 use crate::observe::{LimbObservation, SlothObservation};
 use crate::path::{Adjacency, axis_at, project};
 use crate::rigdata::{BODY_RADIUS, RigData};
@@ -63,6 +64,8 @@ pub struct World<'a> {
     pub adjacency: &'a Adjacency,
     /// IK parameters.
     pub ccd: &'a CcdParams,
+    /// Other sloths' bodies and grips (previous tick), when in a crowd.
+    pub crowd: Option<&'a CrowdGrid>,
 }
 
 impl World<'_> {
@@ -114,7 +117,7 @@ pub struct Search {
 }
 
 /// One limb.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct LimbState {
     /// Phase.
     pub phase: LimbPhase,
@@ -129,6 +132,7 @@ pub struct LimbState {
     /// IK target this frame.
     pub target: Vec3,
     /// Warm-started IK pose.
+    #[serde(with = "pose_serde")]
     pub pose: ChainPose,
     /// Chain root this frame (world).
     pub root: Vec3,
@@ -153,8 +157,10 @@ pub enum Status {
 }
 
 /// One sloth.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Sloth {
+    /// Stable id (crowd neighbour checks skip the sloth's own points).
+    pub id: u32,
     /// Body position (model origin) and rotation (model +Z forward, +Y toward the support).
     pub body_pos: Vec3,
     /// Body rotation.
@@ -175,19 +181,56 @@ pub struct Sloth {
     pub goal_tolerance: f32,
     /// Step searches that found nothing since the last step taken.
     pub failed_searches: u8,
+    /// Autorun: no goal; at a dead end (or blocked by other sloths) turn
+    /// back instead of stopping, and pick among neighbour supports by `seed`.
+    pub wander: bool,
+    /// Seed of this sloth's route choices (wander mode).
+    pub seed: u64,
+    /// Times this sloth turned back (wander mode); varies route choices.
+    pub turns: u32,
+}
+
+/// Serde for [`ChainPose`] (four quaternions, bit-exact through serde's f32).
+mod pose_serde {
+    use glam::Quat;
+    use serde::{Deserialize, Deserializer, Serialize, Serializer};
+    use slothsim_rig::ChainPose;
+
+    pub fn serialize<S: Serializer>(p: &ChainPose, s: S) -> Result<S::Ok, S::Error> {
+        p.0.serialize(s)
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<ChainPose, D::Error> {
+        <[Quat; 4]>::deserialize(d).map(ChainPose)
+    }
+}
+
+/// SplitMix64 finaliser: a well-mixed hash of `x`.
+pub fn mix64(mut x: u64) -> u64 {
+    x = x.wrapping_add(0x9E37_79B9_7F4A_7C15);
+    x = (x ^ (x >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    x = (x ^ (x >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    x ^ (x >> 31)
 }
 
 /// This sloth's trace requests for the next Trace stage and their results.
-#[derive(Clone, Debug)]
+/// Checkpoints keep the queued requests; results are recomputed by the next
+/// Trace stage before anything reads them.
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct TraceBatch {
     /// Requests (first `len`).
     pub reqs: [TraceRequest; MAX_TRACES],
     /// Which candidate each request traces.
     pub meta: [Candidate; MAX_TRACES],
     /// Results, filled by the Trace stage.
+    #[serde(skip, default = "no_results")]
     pub results: [TraceResult; MAX_TRACES],
     /// Number of requests.
     pub len: usize,
+}
+
+fn no_results() -> [TraceResult; MAX_TRACES] {
+    [Ok(None); MAX_TRACES]
 }
 
 impl Default for TraceBatch {
@@ -227,7 +270,7 @@ impl TraceBatch {
 }
 
 /// A step-search candidate being traced.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Candidate {
     /// Limb index.
     pub limb: u8,
@@ -370,6 +413,7 @@ impl Sloth {
             l.from_normal = out;
         }
         let mut sloth = Sloth {
+            id: 0,
             body_pos: c.point - up * w.body_offset,
             body_rot: rotation_from(f, up),
             limbs,
@@ -380,6 +424,9 @@ impl Sloth {
             goal: goal.map(|(s, p, _)| (s, p)),
             goal_tolerance: goal.map_or(0.3, |g| g.2),
             failed_searches: 0,
+            wander: false,
+            seed: 0,
+            turns: 0,
         };
         // Settle the stance: a few rounds of (body from grips; each grip slid
         // along the support to where its limb reaches it best, searched in
@@ -601,11 +648,32 @@ impl Sloth {
                 if self.failed_searches >= STOP_AFTER_FAILED_SEARCHES
                     && self.status == Status::Moving
                 {
-                    self.status = Status::NoGrip;
+                    if self.wander {
+                        self.turn_back();
+                    } else {
+                        self.status = Status::NoGrip;
+                    }
                 }
                 return;
             }
         }
+    }
+
+    /// Wander mode, at a dead end or blocked: reverse the travel direction
+    /// (the same footfall order continues, tail first) and vary later route choices.
+    fn turn_back(&mut self) {
+        self.dir = -self.dir;
+        for l in &mut self.limbs {
+            l.grip.sdir = -l.grip.sdir;
+        }
+        self.failed_searches = 0;
+        self.turns = self.turns.wrapping_add(1);
+    }
+
+    /// Whether `limb` belongs to the pair that leads in the travel direction
+    /// (fore limbs head first, hind limbs tail first).
+    fn leads(&self, limb: Limb) -> bool {
+        limb.is_fore() == (self.dir > 0.0)
     }
 
     /// Sets up the search on the next admissible neighbour support. False when none is left.
@@ -618,19 +686,29 @@ impl Sloth {
             u16::MAX => 0usize,
             n => n as usize,
         };
-        // The supports the fore limbs hold, for "fore limbs transfer first".
-        let fore_supports = [
-            self.limbs[Limb::LF.index()].grip.support,
-            self.limbs[Limb::RF.index()].grip.support,
-        ];
-        let fore_on_cur = fore_supports.contains(&cur.support);
+        // The supports the leading limbs hold: they transfer first.
+        let lead = if self.dir > 0.0 {
+            [Limb::LF, Limb::RF]
+        } else {
+            [Limb::LH, Limb::RH]
+        };
+        let lead_supports = lead.map(|l| self.limbs[l.index()].grip.support);
+        let lead_on_cur = lead_supports.contains(&cur.support);
+        // Wander mode: neighbours in an order of this sloth's own (the same
+        // for all its limbs at this support, so they pick the same one).
+        let rotate = if self.wander && !neighbours.is_empty() {
+            (mix64(self.seed ^ mix64(cur.support.0 as u64 ^ ((self.turns as u64) << 32)))
+                % neighbours.len() as u64) as usize
+        } else {
+            0
+        };
         while k < neighbours.len() {
-            let sid = neighbours[k];
+            let sid = neighbours[(k + rotate) % neighbours.len()];
             k += 1;
             let s2 = scene.support(sid);
-            // Hind limbs only follow onto a support a fore limb already holds,
-            // and leave a trunk only when no fore limb is on it.
-            if !limb.is_fore() && (!fore_supports.contains(&sid) || fore_on_cur) {
+            // Trailing limbs only follow onto a support a leading limb already
+            // holds, and leave a trunk only when no leading limb is on it.
+            if !self.leads(limb) && (!lead_supports.contains(&sid) || lead_on_cur) {
                 continue;
             }
             let root = self.limbs[li].root;
@@ -688,7 +766,8 @@ impl Sloth {
         let s = w.scene().support(sid);
         let a = axis_at(s, u);
         let body_side = self.body_pos - a.point;
-        let (f, up) = support_frame(s.kind, a.tangent * sdir, a.tangent, body_side);
+        // Body forward is the travel direction × dir (tail first when dir < 0).
+        let (f, up) = support_frame(s.kind, a.tangent * (sdir * self.dir), a.tangent, body_side);
         let out = grip_out(s.kind, limb, f, up, w.cfg.trunk_grip_angle_deg.to_radians());
         let approx = a.point + out * a.radius;
         let cur = self.limbs[li].grip.point;
@@ -716,6 +795,10 @@ impl Sloth {
         }
         let opp = self.limbs[limb.opposite().index()].grip.point;
         if (approx - opp).dot(travel) < 0.0 {
+            return None;
+        }
+        // Keep clear of other sloths' bodies and grips.
+        if w.crowd.is_some_and(|g| g.blocked(self.id, approx)) {
             return None;
         }
         if !self.step_reachable(w, li, approx) {

@@ -17,7 +17,7 @@ use obvhs::{
     ray::safe_inverse,
 };
 use rayon::prelude::*;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use crate::{
     Scene, SupportId, SupportKind, TraceError,
@@ -25,7 +25,7 @@ use crate::{
 };
 
 /// A line trace: from `origin` along `dir` (any length ≠ 0; normalised) up to `max_dist` metres.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct LineTrace {
     /// Start point, world space.
     pub origin: Vec3,
@@ -36,7 +36,7 @@ pub struct LineTrace {
 }
 
 /// A sphere sweep: a sphere of `radius` moving like a [`LineTrace`].
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct SphereSweep {
     /// The path of the sphere's centre.
     pub line: LineTrace,
@@ -56,7 +56,7 @@ pub struct BoxOverlap {
 }
 
 /// One batched trace request.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub enum TraceRequest {
     /// Closest hit along a line.
     Line(LineTrace),

@@ -1,12 +1,37 @@
 //! The simulation: the only bevy_ecs crate. One sloth = one entity; the tick
 //! is one schedule of five chained stages (see [`schedule`]); each stage runs
 //! its per-sloth kernel (from `slothsim-gait`) in parallel over all sloths and
-//! times itself into [`StageTimings`].
+//! times itself into [`StageTimings`]. [`crowd`] is the main job: a crowd of
+//! wandering sloths on a forest; [`scenario`] runs one sloth on a preset.
 
+pub mod crowd;
 pub mod scenario;
 pub mod schedule;
 pub mod world;
 
+pub use crowd::{
+    CheckpointInfo, Crowd, CrowdError, CrowdSpec, CrowdStats, ForestSource, Percentiles, StagesMs,
+    WorstSloths, forest_for, scene_hash,
+};
 pub use scenario::{ScenarioResult, ScenarioSpec, TrunkVariant, run_scenario};
 pub use schedule::{SimSystems, StageTimings, build_schedule, init_compute_pool};
-pub use world::{Locomotion, SimClock, SlothId, SlothState, Traces, new_world, spawn_sloth};
+pub use world::{
+    CrowdNeighbours, Locomotion, SimClock, SlothId, SlothState, Traces, new_world, spawn_sloth,
+};
+
+/// Writes `bytes` to a temporary file next to `path`, then renames it into
+/// place, so a reader never sees a partial file under the final name.
+pub fn write_atomically(path: &std::path::Path, bytes: &[u8]) -> std::io::Result<()> {
+    let name = path
+        .file_name()
+        .ok_or_else(|| std::io::Error::other(format!("{} is not a file path", path.display())))?;
+    let mut tmp_name = std::ffi::OsString::from(".");
+    tmp_name.push(name);
+    tmp_name.push(format!(".tmp{}", std::process::id()));
+    let tmp = path.with_file_name(tmp_name);
+    let result = std::fs::write(&tmp, bytes).and_then(|()| std::fs::rename(&tmp, path));
+    if result.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    result
+}

@@ -13,7 +13,7 @@ use bevy_ecs::prelude::*;
 use bevy_ecs::schedule::SingleThreadedExecutor;
 use bevy_tasks::{ComputeTaskPool, TaskPoolBuilder};
 
-use crate::world::{Locomotion, SimClock, SlothState, Traces};
+use crate::world::{CrowdNeighbours, Locomotion, SimClock, SlothId, SlothState, Traces};
 
 /// The stages of one tick, in order.
 #[derive(SystemSet, Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -39,6 +39,8 @@ pub struct StageTimings {
     pub history: Vec<[f64; 5]>,
     /// Traces run in the last frame.
     pub traces_last: u64,
+    /// Traces run in all frames.
+    pub traces_total: u64,
 }
 
 impl StageTimings {
@@ -65,16 +67,18 @@ fn trace_stage(
     let query = loco.traces.query();
     q.par_iter_mut().for_each(|mut tr| tr.0.run(&query));
     timings.traces_last = q.iter().map(|t| t.0.len as u64).sum();
+    timings.traces_total += timings.traces_last;
     timings.last[0] = ms(t);
 }
 
 fn step_search_stage(
     loco: Res<Locomotion>,
+    crowd: Option<Res<CrowdNeighbours>>,
     mut q: Query<(&mut SlothState, &mut Traces)>,
     mut timings: ResMut<StageTimings>,
 ) {
     let t = Instant::now();
-    let w = loco.view();
+    let w = loco.view_in(crowd.as_deref());
     q.par_iter_mut()
         .for_each(|(mut s, mut tr)| s.0.step_search(&w, &mut tr.0));
     timings.last[1] = ms(t);
@@ -108,15 +112,22 @@ fn ccd_stage(
 
 fn transitions_stage(
     loco: Res<Locomotion>,
+    mut crowd: Option<ResMut<CrowdNeighbours>>,
     mut clock: ResMut<SimClock>,
-    mut q: Query<(&mut SlothState, &mut Traces)>,
+    mut q: Query<(&SlothId, &mut SlothState, &mut Traces)>,
     mut timings: ResMut<StageTimings>,
 ) {
     let t = Instant::now();
-    let w = loco.view();
     let dt = clock.dt;
-    q.par_iter_mut()
-        .for_each(|(mut s, mut tr)| s.0.transitions(&w, dt, &mut tr.0));
+    {
+        let w = loco.view_in(crowd.as_deref());
+        q.par_iter_mut()
+            .for_each(|(_, mut s, mut tr)| s.0.transitions(&w, dt, &mut tr.0));
+    }
+    // Sloths meet sloths: the next tick reads this tick's bodies and grips.
+    if let Some(crowd) = crowd.as_deref_mut() {
+        crowd.rebuild(&loco, q.iter().map(|(id, s, _)| (id.0, &s.0)));
+    }
     clock.frame += 1;
     timings.last[4] = ms(t);
     let last = timings.last;

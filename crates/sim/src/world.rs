@@ -2,7 +2,8 @@
 
 use bevy_ecs::prelude::*;
 use slothsim_gait::{
-    Adjacency, LocomotionConfig, RigData, Sloth, SpawnHint, TraceBatch, World as LocoWorld,
+    Adjacency, CrowdGrid, LocomotionConfig, RigData, Sloth, SpawnHint, TraceBatch,
+    World as LocoWorld,
 };
 use slothsim_rig::{CcdParams, Rig};
 use slothsim_scene::{SupportId, TraceScene};
@@ -65,7 +66,15 @@ impl Locomotion {
         })
     }
 
-    /// The kernels' view.
+    /// The kernels' view, with other sloths when in a crowd.
+    pub fn view_in<'a>(&'a self, crowd: Option<&'a CrowdNeighbours>) -> LocoWorld<'a> {
+        LocoWorld {
+            crowd: crowd.map(|c| &c.grid),
+            ..self.view()
+        }
+    }
+
+    /// The kernels' view (a lone sloth).
     pub fn view(&self) -> LocoWorld<'_> {
         LocoWorld {
             cfg: &self.cfg,
@@ -74,7 +83,41 @@ impl Locomotion {
             query: self.traces.query(),
             adjacency: &self.adjacency,
             ccd: &self.ccd,
+            crowd: None,
         }
+    }
+}
+
+/// Sloths meet sloths: every sloth's body and grips from the previous tick
+/// (rebuilt at the end of each Transitions stage), present in crowd runs.
+#[derive(Resource, Clone, Debug)]
+pub struct CrowdNeighbours {
+    /// The spatial hash.
+    pub grid: CrowdGrid,
+}
+
+impl CrowdNeighbours {
+    /// An empty structure keeping `clearance_m` between sloths.
+    pub fn new(clearance_m: f32) -> Self {
+        CrowdNeighbours {
+            grid: CrowdGrid::new(clearance_m),
+        }
+    }
+
+    /// Rebuilds from `(id, sloth)` pairs: body centre, hips, head and grips.
+    pub fn rebuild<'a>(
+        &mut self,
+        loco: &Locomotion,
+        sloths: impl Iterator<Item = (u32, &'a Sloth)>,
+    ) {
+        let rig = &loco.rig;
+        self.grid.rebuild(sloths.flat_map(|(id, s)| {
+            let to_ws = |p: glam::Vec3| s.body_pos + s.body_rot * p;
+            let body = [s.body_pos, to_ws(rig.hips_ms), to_ws(rig.head_ms)];
+            body.into_iter()
+                .chain(s.limbs.iter().map(|l| l.grip.point))
+                .map(move |p| (id, p))
+        }));
     }
 }
 

@@ -1,0 +1,168 @@
+//! Sloths meet sloths: a spatial hash of every sloth's body and grips, rebuilt
+//! once per tick from the previous tick's state, so the step search can keep
+//! a clearance from other sloths while every sloth is updated in parallel.
+//!
+//! The grid is built serially in sloth-id order and only read during the
+//! tick, so results never depend on the thread count.
+
+use glam::{IVec3, Vec3};
+
+/// Points each sloth contributes: body centre, hips, head and its four grips.
+pub const POINTS_PER_SLOTH: usize = 7;
+
+/// A spatial hash over the sloths' occupied points (owner id + position).
+#[derive(Clone, Debug, Default)]
+pub struct CrowdGrid {
+    /// Keep new grips at least this far from another sloth's points (metres).
+    clearance: f32,
+    cell: f32,
+    mask: u32,
+    /// `starts[h]..starts[h + 1]` index `entries` of hash bucket `h`.
+    starts: Vec<u32>,
+    entries: Vec<(u32, Vec3)>,
+    /// Scratch: (bucket, owner, point) before the counting sort.
+    staging: Vec<(u32, u32, Vec3)>,
+}
+
+fn cell_of(p: Vec3, inv_cell: f32) -> IVec3 {
+    (p * inv_cell).floor().as_ivec3()
+}
+
+fn bucket(c: IVec3, mask: u32) -> u32 {
+    // Three large primes (Teschner et al. 2003), wrapping.
+    let h = (c.x as u32).wrapping_mul(73_856_093)
+        ^ (c.y as u32).wrapping_mul(19_349_663)
+        ^ (c.z as u32).wrapping_mul(83_492_791);
+    h & mask
+}
+
+impl CrowdGrid {
+    /// An empty grid keeping `clearance_m` between sloths.
+    pub fn new(clearance_m: f32) -> Self {
+        CrowdGrid {
+            clearance: clearance_m,
+            cell: clearance_m.max(0.05),
+            ..Default::default()
+        }
+    }
+
+    /// The clearance this grid enforces.
+    pub fn clearance(&self) -> f32 {
+        self.clearance
+    }
+
+    /// Number of points held.
+    pub fn len(&self) -> usize {
+        self.entries.len()
+    }
+
+    /// Whether the grid holds no points.
+    pub fn is_empty(&self) -> bool {
+        self.entries.is_empty()
+    }
+
+    /// Rebuilds the grid from `(owner, point)` pairs (order kept within a
+    /// bucket, so queries are deterministic). Reuses its buffers.
+    pub fn rebuild(&mut self, points: impl IntoIterator<Item = (u32, Vec3)>) {
+        let inv = 1.0 / self.cell;
+        self.staging.clear();
+        self.staging.extend(
+            points
+                .into_iter()
+                .filter(|(_, p)| p.is_finite())
+                .map(|(o, p)| (0, o, p)),
+        );
+        let n = self.staging.len();
+        let buckets = (n * 2).next_power_of_two().max(64);
+        self.mask = buckets as u32 - 1;
+        for e in &mut self.staging {
+            e.0 = bucket(cell_of(e.2, inv), self.mask);
+        }
+        self.starts.clear();
+        self.starts.resize(buckets + 1, 0);
+        for e in &self.staging {
+            self.starts[e.0 as usize + 1] += 1;
+        }
+        for i in 0..buckets {
+            self.starts[i + 1] += self.starts[i];
+        }
+        self.entries.clear();
+        self.entries.resize(n, (0, Vec3::ZERO));
+        let mut fill = self.starts.clone();
+        for &(b, o, p) in &self.staging {
+            let slot = &mut fill[b as usize];
+            self.entries[*slot as usize] = (o, p);
+            *slot += 1;
+        }
+    }
+
+    /// Whether a point of a sloth other than `me` lies within the clearance of `p`.
+    pub fn blocked(&self, me: u32, p: Vec3) -> bool {
+        if self.entries.is_empty() || !p.is_finite() {
+            return false;
+        }
+        let inv = 1.0 / self.cell;
+        let c = cell_of(p, inv);
+        let r2 = self.clearance * self.clearance;
+        // The cell is at least the clearance, so the 27 cells around `p` cover it.
+        for dz in -1..=1 {
+            for dy in -1..=1 {
+                for dx in -1..=1 {
+                    let b = bucket(c + IVec3::new(dx, dy, dz), self.mask) as usize;
+                    let (s, e) = (self.starts[b] as usize, self.starts[b + 1] as usize);
+                    for &(owner, q) in &self.entries[s..e] {
+                        if owner != me && q.distance_squared(p) < r2 {
+                            return true;
+                        }
+                    }
+                }
+            }
+        }
+        false
+    }
+
+    /// Brute-force reference for [`CrowdGrid::blocked`] (tests).
+    pub fn blocked_brute_force(&self, me: u32, p: Vec3) -> bool {
+        let r2 = self.clearance * self.clearance;
+        self.entries
+            .iter()
+            .any(|&(o, q)| o != me && q.distance_squared(p) < r2)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    proptest! {
+        #[test]
+        fn grid_matches_brute_force(
+            pts in prop::collection::vec((0u32..20, -3.0f32..3.0, -3.0f32..3.0, -3.0f32..3.0), 0..200),
+            probes in prop::collection::vec((0u32..20, -3.5f32..3.5, -3.5f32..3.5, -3.5f32..3.5), 1..50),
+        ) {
+            let mut g = CrowdGrid::new(0.3);
+            g.rebuild(pts.iter().map(|&(o, x, y, z)| (o, Vec3::new(x, y, z))));
+            prop_assert_eq!(g.len(), pts.len());
+            for &(me, x, y, z) in &probes {
+                let p = Vec3::new(x, y, z);
+                prop_assert_eq!(g.blocked(me, p), g.blocked_brute_force(me, p));
+            }
+        }
+    }
+
+    #[test]
+    fn own_points_never_block_and_nan_is_ignored() {
+        let mut g = CrowdGrid::new(0.3);
+        g.rebuild([
+            (1, Vec3::ZERO),
+            (2, Vec3::new(0.29, 0.0, 0.0)),
+            (3, Vec3::NAN),
+        ]);
+        assert_eq!(g.len(), 2);
+        assert!(!g.blocked(1, Vec3::new(0.5, 0.0, 0.0)));
+        assert!(g.blocked(1, Vec3::new(0.31, 0.0, 0.0)));
+        assert!(!g.blocked(2, Vec3::new(0.31, 0.0, 0.0)));
+        assert!(!g.blocked(1, Vec3::NAN));
+    }
+}
