@@ -14,12 +14,30 @@ use slothsim_plot::{
 };
 use slothsim_scene::{Preset, Scene, SupportKind, default_forest};
 
-/// A fresh folder for one test.
-fn out_dir(test: &str) -> PathBuf {
+/// A fresh folder for one test, removed when the test passes (kept for a look when it
+/// fails).
+struct OutDir(PathBuf);
+
+impl std::ops::Deref for OutDir {
+    type Target = Path;
+    fn deref(&self) -> &Path {
+        &self.0
+    }
+}
+
+impl Drop for OutDir {
+    fn drop(&mut self) {
+        if !std::thread::panicking() {
+            let _ = std::fs::remove_dir_all(&self.0);
+        }
+    }
+}
+
+fn out_dir(test: &str) -> OutDir {
     let dir = std::env::temp_dir().join(format!("slothsim-plot-{test}-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
-    dir
+    OutDir(dir)
 }
 
 /// Writes the pixmap with `save_png`, then decodes the file again.
@@ -524,7 +542,6 @@ fn save_png_into_a_missing_or_unwritable_folder_is_a_clear_error() {
         .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
         .collect();
     assert_eq!(names, vec!["gait.png".to_string()]);
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
