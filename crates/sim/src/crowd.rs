@@ -329,12 +329,16 @@ pub fn scene_hash(scene: &Scene) -> u64 {
     h.0
 }
 
-/// A procedural forest config sized for `sloths`: the embedded default when
-/// it holds them at no more than ~60 % of its spawn slots, else more trees on
-/// a proportionally larger area (same tree density).
+/// Sloths per tree the auto-sized forest plans for: a tree offers ~40 branch
+/// slots of which about half pass the spawn check; 12 leaves room to wander.
+pub const SLOTHS_PER_TREE: u32 = 12;
+
+/// A procedural forest config sized for `sloths`: the embedded default (64
+/// trees) up to 64 × [`SLOTHS_PER_TREE`] sloths, else more trees on a
+/// proportionally larger area (same tree density). `trees` overrides.
 pub fn forest_for(sloths: u32, trees: Option<u32>, seed: Option<u64>) -> ForestConfig {
     let mut cfg = ForestConfig::default();
-    let trees = trees.unwrap_or_else(|| cfg.trees.max(sloths.div_ceil(30)));
+    let trees = trees.unwrap_or_else(|| cfg.trees.max(sloths.div_ceil(SLOTHS_PER_TREE)));
     cfg.area_m *= (trees as f32 / cfg.trees as f32).sqrt();
     cfg.trees = trees;
     if let Some(seed) = seed {
