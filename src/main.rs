@@ -1,5 +1,6 @@
 //! The `slothsim` command line.
 
+mod bench_cmd;
 mod run_cmd;
 mod scenario_cmd;
 mod scene_cmd;
@@ -25,6 +26,8 @@ enum Command {
     Scenario(scenario_cmd::ScenarioArgs),
     /// The main job: a crowd of wandering sloths on a forest (stats.json, timings.csv).
     Run(run_cmd::RunArgs),
+    /// Frame and stage times of the crowd at several sizes, the largest crowd within a frame budget, and a naive baseline.
+    Bench(bench_cmd::BenchArgs),
     /// Sweep every preset over its angle range (thesis Table 7); exit 0 when the thesis ranges pass.
     Matrix(scenario_cmd::MatrixArgs),
 }
@@ -36,6 +39,7 @@ fn main() -> ExitCode {
         Command::Scenario(args) => scenario_cmd::scenario(args),
         Command::Matrix(args) => scenario_cmd::matrix(args),
         Command::Run(args) => run_cmd::run(args),
+        Command::Bench(args) => bench_cmd::run(args),
     };
     match result {
         Ok(true) => ExitCode::SUCCESS,

@@ -4,6 +4,7 @@
 //! times itself into [`StageTimings`]. [`crowd`] is the main job: a crowd of
 //! wandering sloths on a forest; [`scenario`] runs one sloth on a preset.
 
+pub mod baseline;
 pub mod crowd;
 pub mod scenario;
 pub mod schedule;
@@ -11,7 +12,7 @@ pub mod world;
 
 pub use crowd::{
     CheckpointInfo, Crowd, CrowdError, CrowdSpec, CrowdStats, ForestSource, Percentiles, StagesMs,
-    WorstSloths, forest_for, scene_hash,
+    WorstSloths, forest_for, scene_hash, state_hash_of,
 };
 pub use scenario::{ScenarioResult, ScenarioSpec, TrunkVariant, run_scenario};
 pub use schedule::{SimSystems, StageTimings, build_schedule, init_compute_pool};

@@ -7,6 +7,7 @@
 //! body pose drawn this frame (the body depends only on the IK targets, never
 //! on the IK result, so nothing is lost).
 
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Instant;
 
 use bevy_ecs::prelude::*;
@@ -41,6 +42,10 @@ pub struct StageTimings {
     pub traces_last: u64,
     /// Traces run in all frames.
     pub traces_total: u64,
+    /// CCD iterations of the CcdSolve stage in the last frame (all limbs).
+    pub ccd_iterations_last: u64,
+    /// CCD iterations of the CcdSolve stage in all frames.
+    pub ccd_iterations_total: u64,
 }
 
 impl StageTimings {
@@ -104,10 +109,15 @@ fn ccd_stage(
 ) {
     let t = Instant::now();
     let w = loco.view();
+    // An integer sum: the same for any order of the workers (deterministic).
+    let iterations = AtomicU64::new(0);
     q.par_iter_mut().for_each(|mut s| {
-        s.0.solve_limbs(&w);
+        let n = s.0.solve_limbs(&w);
+        iterations.fetch_add(n as u64, Ordering::Relaxed);
     });
     timings.last[3] = ms(t);
+    timings.ccd_iterations_last = iterations.into_inner();
+    timings.ccd_iterations_total += timings.ccd_iterations_last;
 }
 
 fn transitions_stage(

@@ -111,14 +111,24 @@ impl CrowdNeighbours {
         sloths: impl Iterator<Item = (u32, &'a Sloth)>,
     ) {
         let rig = &loco.rig;
-        self.grid.rebuild(sloths.flat_map(|(id, s)| {
-            let to_ws = |p: glam::Vec3| s.body_pos + s.body_rot * p;
-            let body = [s.body_pos, to_ws(rig.hips_ms), to_ws(rig.head_ms)];
-            body.into_iter()
-                .chain(s.limbs.iter().map(|l| l.grip.point))
-                .map(move |p| (id, p))
-        }));
+        self.grid.rebuild(
+            sloths.flat_map(|(id, s)| crowd_points(rig, s).into_iter().map(move |p| (id, p))),
+        );
     }
+}
+
+/// The points a sloth occupies for the others: body centre, hips, head and grips.
+pub fn crowd_points(rig: &RigData, s: &Sloth) -> [glam::Vec3; 7] {
+    let to_ws = |p: glam::Vec3| s.body_pos + s.body_rot * p;
+    [
+        s.body_pos,
+        to_ws(rig.hips_ms),
+        to_ws(rig.head_ms),
+        s.limbs[0].grip.point,
+        s.limbs[1].grip.point,
+        s.limbs[2].grip.point,
+        s.limbs[3].grip.point,
+    ]
 }
 
 /// Fixed time step and frame counter.
