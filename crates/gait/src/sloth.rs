@@ -41,11 +41,15 @@ const MIN_REACH_FRACTION: f32 = 0.3;
 /// The sloth stops (no grip) after this many step searches in a row found
 /// nothing: two full gait cycles in which no limb could move.
 const STOP_AFTER_FAILED_SEARCHES: u8 = 8;
+/// Wander mode: stop after this many turn-backs in a row without a step.
+const MAX_STALLED_TURNS: u8 = 2;
 /// A step is taken only if CCD (within joint limits) gets the stepping limb's
 /// claw this close to its new grip from the stance that step implies…
 const STANCE_IK_TOLERANCE: f32 = 0.0015;
 /// …and every other claw this close to the grip it holds.
 const HOLD_IK_TOLERANCE: f32 = 0.003;
+/// A step may not put the body deeper than this into a support.
+const STANCE_MAX_PENETRATION: f32 = 0.005;
 /// The same while the stepping limb is at the top of its arc (transient).
 const SWING_IK_TOLERANCE: f32 = 0.004;
 
@@ -188,6 +192,8 @@ pub struct Sloth {
     pub seed: u64,
     /// Times this sloth turned back (wander mode); varies route choices.
     pub turns: u32,
+    /// Turn-backs since the last step taken (wander mode).
+    pub stalled_turns: u8,
 }
 
 /// Serde for [`ChainPose`] (four quaternions, bit-exact through serde's f32).
@@ -427,6 +433,7 @@ impl Sloth {
             wander: false,
             seed: 0,
             turns: 0,
+            stalled_turns: 0,
         };
         // Settle the stance: a few rounds of (body from grips; each grip slid
         // along the support to where its limb reaches it best, searched in
@@ -554,7 +561,19 @@ impl Sloth {
         grips[li] = grip;
         let mut end_tol = [HOLD_IK_TOLERANCE; 4];
         end_tol[li] = STANCE_IK_TOLERANCE;
-        self.stance_reachable(w, &grips, end_tol)
+        self.stance_reachable(w, &grips, end_tol) && !self.stance_penetrates(w, &grips)
+    }
+
+    /// Whether the body these grips imply would enter a support near them
+    /// (e.g. walking a branch into its trunk).
+    fn stance_penetrates(&self, w: &World<'_>, grips: &[Vec3; 4]) -> bool {
+        let scene = w.scene();
+        let (pos, rot) = self.body_for_targets(w, grips);
+        let torso = [pos + rot * w.rig.torso_ms[0], pos + rot * w.rig.torso_ms[1]];
+        let near = self.limbs[0].grip.support;
+        std::iter::once(&near)
+            .chain(w.adjacency.neighbours(near))
+            .any(|&id| torso_penetration(scene.support(id), torso) > STANCE_MAX_PENETRATION)
     }
 
     /// Travel vector (unit): body forward × dir.
@@ -598,6 +617,7 @@ impl Sloth {
             l.phase = LimbPhase::Swinging;
             l.swing_t = 0.0;
             self.failed_searches = 0;
+            self.stalled_turns = 0;
         }
         batch.len = 0;
         for li in 0..4 {
@@ -648,7 +668,10 @@ impl Sloth {
                 if self.failed_searches >= STOP_AFTER_FAILED_SEARCHES
                     && self.status == Status::Moving
                 {
-                    if self.wander {
+                    // Wander mode: turn back, unless turning back already
+                    // failed to bring a step (tail-first walking is mostly out
+                    // of the limbs' reach: see README); then stop here.
+                    if self.wander && self.stalled_turns < MAX_STALLED_TURNS {
                         self.turn_back();
                     } else {
                         self.status = Status::NoGrip;
@@ -668,6 +691,7 @@ impl Sloth {
         }
         self.failed_searches = 0;
         self.turns = self.turns.wrapping_add(1);
+        self.stalled_turns += 1;
     }
 
     /// Whether `limb` belongs to the pair that leads in the travel direction
@@ -706,6 +730,9 @@ impl Sloth {
             let sid = neighbours[(k + rotate) % neighbours.len()];
             k += 1;
             let s2 = scene.support(sid);
+            if self.wander && s2.kind != scene.support(cur.support).kind {
+                continue;
+            }
             // Trailing limbs only follow onto a support a leading limb already
             // holds, and leave a trunk only when no leading limb is on it.
             if !self.leads(limb) && (!lead_supports.contains(&sid) || lead_on_cur) {
