@@ -1,6 +1,7 @@
 //! The `slothsim` command line.
 
 mod bench_cmd;
+mod plots;
 mod run_cmd;
 mod scenario_cmd;
 mod scene_cmd;
@@ -30,6 +31,11 @@ enum Command {
     Bench(bench_cmd::BenchArgs),
     /// Sweep every preset over its angle range (thesis Table 7); exit 0 when the thesis ranges pass.
     Matrix(scenario_cmd::MatrixArgs),
+    /// Re-draw the top-down plot (topdown.png) from a saved state.
+    Plot(plots::PlotArgs),
+    /// CI: check that PNG plots exist and are not blank (exit 1 otherwise).
+    #[command(hide = true)]
+    PlotCheck(plots::PlotCheckArgs),
 }
 
 fn main() -> ExitCode {
@@ -40,6 +46,8 @@ fn main() -> ExitCode {
         Command::Matrix(args) => scenario_cmd::matrix(args),
         Command::Run(args) => run_cmd::run(args),
         Command::Bench(args) => bench_cmd::run(args),
+        Command::Plot(args) => plots::plot(args),
+        Command::PlotCheck(args) => plots::plot_check(args),
     };
     match result {
         Ok(true) => ExitCode::SUCCESS,

@@ -8,6 +8,7 @@ use anyhow::{Context, Result, bail};
 use clap::Args;
 use slothsim::rig::Rig;
 use slothsim::scene::{Scene, generate_forest, read_scene};
+use slothsim::sim::snapshot::CrowdRecorder;
 use slothsim::sim::{
     Crowd, CrowdSpec, CrowdStats, ForestSource, StageTimings, forest_for, init_compute_pool,
     scene_hash, write_atomically,
@@ -63,6 +64,9 @@ pub struct RunArgs {
     /// Do not draw plots.
     #[arg(long)]
     no_plots: bool,
+    /// The sloth whose gait and step-search traces are plotted.
+    #[arg(long, default_value_t = 0)]
+    focus: u32,
 }
 
 /// Builds the crowd: fresh, or from a checkpoint.
@@ -87,15 +91,7 @@ fn build_crowd(args: &RunArgs, rig: &Rig) -> Result<Crowd> {
                 "--load-state takes the forest, config, seed, sloths and time step from the state file; drop --sloths/--trees/--seed/--forest-seed/--config/--profile/--dt/--clearance"
             );
         }
-        let info = Crowd::checkpoint_info(state)?;
-        let scene = match &info.forest {
-            ForestSource::Procedural(cfg) => generate_forest(cfg)?,
-            ForestSource::File { path, .. } => {
-                let path = args.forest.as_deref().unwrap_or(path);
-                read_scene(path).with_context(|| format!("forest {}", path.display()))?
-            }
-        };
-        return Ok(Crowd::load_state(state, rig, scene)?);
+        return load_checkpoint(state, args.forest.as_deref(), rig);
     }
     if args.sloths <= 0 {
         bail!("--sloths must be at least 1 (got {})", args.sloths);
@@ -133,8 +129,22 @@ fn build_crowd(args: &RunArgs, rig: &Rig) -> Result<Crowd> {
     Ok(Crowd::new(spec, rig, scene, source)?)
 }
 
+/// A crowd from a checkpoint: its forest rebuilt (procedural) or read
+/// (`forest` overrides the file path the state names), then the state loaded.
+pub fn load_checkpoint(state: &Path, forest: Option<&Path>, rig: &Rig) -> Result<Crowd> {
+    let info = Crowd::checkpoint_info(state)?;
+    let scene = match &info.forest {
+        ForestSource::Procedural(cfg) => generate_forest(cfg)?,
+        ForestSource::File { path, .. } => {
+            let path = forest.unwrap_or(path);
+            read_scene(path).with_context(|| format!("forest {}", path.display()))?
+        }
+    };
+    Ok(Crowd::load_state(state, rig, scene)?)
+}
+
 /// Makes sure `dir` exists and is writable before a long run starts.
-fn prepare_out(dir: &Path) -> Result<()> {
+pub fn prepare_out(dir: &Path) -> Result<()> {
     std::fs::create_dir_all(dir)
         .with_context(|| format!("cannot create output folder {}", dir.display()))?;
     let probe = dir.join(".slothsim-write-probe");
@@ -168,8 +178,18 @@ pub fn run(args: RunArgs) -> Result<bool> {
         crowd.spec().sloths,
         dt
     );
+    if args.focus >= crowd.spec().sloths {
+        bail!(
+            "--focus {} is not a sloth of this run (0..{})",
+            args.focus,
+            crowd.spec().sloths
+        );
+    }
+    // Plot samples (trails every second, the focus sloth's gait and traces)
+    // are read after each tick, outside the stage timings.
+    let mut recorder = (!args.no_plots).then(|| CrowdRecorder::new(&crowd, args.focus, 1.0));
     let t1 = Instant::now();
-    simulate(&mut crowd, frames);
+    simulate(&mut crowd, frames, recorder.as_mut());
     let wall_s = t1.elapsed().as_secs_f64();
     let stats = crowd.stats(threads);
     if let Some(path) = &args.save_state {
@@ -177,14 +197,16 @@ pub fn run(args: RunArgs) -> Result<bool> {
     }
     write_outputs(&args.out, &stats, crowd.timings())?;
     print_summary(&stats, wall_s, &args.out);
-    if !args.no_plots {
-        // Plots arrive with the plotting crate; the flag exists already.
+    if let Some(rec) = &mut recorder {
+        rec.finish(&crowd);
+        let costs = crate::plots::run_plots(&args.out, &crowd, rec)?;
+        crate::plots::print_costs(&costs, &args.out);
     }
     Ok(true)
 }
 
 /// Runs `frames` ticks with a progress bar on a terminal, plain lines otherwise.
-fn simulate(crowd: &mut Crowd, frames: u64) {
+fn simulate(crowd: &mut Crowd, frames: u64, mut recorder: Option<&mut CrowdRecorder>) {
     let tty = std::io::stderr().is_terminal();
     let bar = if tty {
         let b = indicatif::ProgressBar::new(frames);
@@ -201,6 +223,9 @@ fn simulate(crowd: &mut Crowd, frames: u64) {
     let tenth = (frames / 10).max(1);
     for f in 1..=frames {
         crowd.step();
+        if let Some(r) = recorder.as_deref_mut() {
+            r.record(crowd);
+        }
         let frame_ms: f64 = crowd.timings().last.iter().sum();
         if let Some(b) = &bar {
             b.set_position(f);

@@ -52,9 +52,12 @@ pub struct ScenarioArgs {
     /// Give up after this many simulated seconds (default: from the path length).
     #[arg(long, allow_hyphen_values = true)]
     seconds: Option<f32>,
-    /// Output folder for scenario.json.
+    /// Output folder for scenario.json and the plots.
     #[arg(long)]
     out: Option<PathBuf>,
+    /// Do not draw plots (topdown.png, side.png, gait.png, frame_times.png) into --out.
+    #[arg(long)]
+    no_plots: bool,
 }
 
 /// The locomotion config: profile defaults, overridden by a TOML file.
@@ -157,6 +160,16 @@ fn print_result(r: &ScenarioResult) {
     }
 }
 
+/// The goal point as run (the trunk's down variant swaps start and goal).
+fn goal_of(spec: &ScenarioSpec) -> glam::Vec3 {
+    let p = &spec.preset;
+    if p.kind == PresetKind::Trunk && spec.variant == TrunkVariant::Down {
+        p.start.position
+    } else {
+        p.goal.point
+    }
+}
+
 /// `slothsim scenario`: exit code 0 pass, 1 fail.
 pub fn scenario(args: ScenarioArgs) -> Result<bool> {
     let kind = PresetKind::parse(&args.name)?;
@@ -182,11 +195,19 @@ pub fn scenario(args: ScenarioArgs) -> Result<bool> {
         time_limit_s: args.seconds,
         tolerances: Tolerances::default(),
     };
+    if let Some(dir) = &args.out {
+        crate::run_cmd::prepare_out(dir)?;
+    }
     let result = run_scenario(&spec, &Rig::sloth())?;
     print_result(&result);
     if let Some(dir) = &args.out {
         let path = write_json(dir, "scenario.json", &result)?;
         println!("wrote {}", path.display());
+        if !args.no_plots {
+            let costs =
+                crate::plots::scenario_plots(dir, &spec.preset.scene, goal_of(&spec), &result)?;
+            crate::plots::print_costs(&costs, dir);
+        }
     }
     Ok(result.verdict.pass)
 }
@@ -205,6 +226,9 @@ pub struct MatrixArgs {
     /// Output folder for matrix.json.
     #[arg(long)]
     out: Option<PathBuf>,
+    /// Also draw every case's plots into a subfolder of --out (e.g. `turn-135/`).
+    #[arg(long, requires = "out")]
+    plots: bool,
 }
 
 /// One row of the matrix.
@@ -303,6 +327,17 @@ pub fn matrix(args: MatrixArgs) -> Result<bool> {
                     (None, true) => format!("{variant:?}").to_lowercase(),
                     (None, false) => "-".into(),
                 };
+                if args.plots
+                    && let Some(dir) = &args.out
+                {
+                    let sub = match label.as_str() {
+                        "-" => dir.join(kind.name()),
+                        l => dir.join(format!("{}-{l}", kind.name())),
+                    };
+                    std::fs::create_dir_all(&sub)
+                        .with_context(|| format!("cannot create {}", sub.display()))?;
+                    crate::plots::scenario_plots(&sub, &spec.preset.scene, goal_of(&spec), &r)?;
+                }
                 println!(
                     "{:<14} {:>8}  {:<6} {}",
                     kind.name(),

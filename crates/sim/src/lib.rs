@@ -8,6 +8,7 @@ pub mod baseline;
 pub mod crowd;
 pub mod scenario;
 pub mod schedule;
+pub mod snapshot;
 pub mod world;
 
 pub use crowd::{

@@ -8,10 +8,15 @@ use slothsim_gait::{
     GaitReport, GaitStats, Judge, JudgeReport, LocomotionConfig, SlothObservation, SpawnHint,
     Status, Tolerances, Verdict,
 };
+use slothsim_plot::{SideInstant, TraceLine};
 use slothsim_rig::Rig;
 use slothsim_scene::{Preset, PresetKind, TraceScene};
 
-use crate::world::{Locomotion, SlothState, new_world, spawn_sloth};
+use crate::snapshot::{sloth_pose, trace_lines};
+use crate::world::{Locomotion, SlothState, Traces, new_world, spawn_sloth};
+
+/// Seconds between the poses kept for the side view.
+pub const POSE_EVERY_S: f32 = 1.0;
 
 /// Which way a scenario is run (only the trunk preset has variants).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
@@ -67,6 +72,15 @@ pub struct ScenarioResult {
     /// Every frame's observation (for plots).
     #[serde(skip)]
     pub observations: Vec<SlothObservation>,
+    /// The sloth's pose every [`POSE_EVERY_S`] and at the last frame (for the side view).
+    #[serde(skip)]
+    pub poses: Vec<SideInstant>,
+    /// The traces of the sloth's last step search (for the top-down view).
+    #[serde(skip)]
+    pub traces: Vec<TraceLine>,
+    /// Per-frame stage times (ms), as in [`crate::StageTimings::history`].
+    #[serde(skip)]
+    pub stage_ms: Vec<[f64; 5]>,
 }
 
 /// Runs one scenario to the goal, a stop, or the time limit.
@@ -114,15 +128,28 @@ pub fn run_scenario(
     let frames_max = (time_limit_s / spec.dt).ceil() as u64;
     let mut status = Status::Moving;
     let mut frames = 0;
-    let mut sloths = world.query::<&SlothState>();
+    let mut sloths = world.query::<(&SlothState, &Traces)>();
     let mut after_stop = 0;
+    let mut poses = Vec::new();
+    let mut last_search = None;
+    let pose_every = ((POSE_EVERY_S / spec.dt).round() as u64).max(1);
     while frames < frames_max {
         schedule.run(&mut world);
         frames += 1;
         let loco = world.resource::<Locomotion>();
         let w = loco.view();
-        let s = &sloths.single(&world).expect("one sloth").0;
+        let (s, tr) = sloths.single(&world).expect("one sloth");
+        let s = &s.0;
         let obs = s.observe(&w);
+        if frames.is_multiple_of(pose_every) {
+            poses.push(SideInstant {
+                time_s: obs.time_s,
+                pose: sloth_pose(s, loco),
+            });
+        }
+        if tr.0.len > 0 {
+            last_search = Some(tr.0.clone());
+        }
         judge.observe(&obs);
         stats.observe(&obs);
         if frames % ((0.5 / spec.dt).round() as u64).max(1) == 0 {
@@ -138,6 +165,18 @@ pub fn run_scenario(
             }
         }
     }
+    if let Ok((s, _)) = sloths.single(&world)
+        && !frames.is_multiple_of(pose_every)
+    {
+        let loco = world.resource::<Locomotion>();
+        poses.push(SideInstant {
+            time_s: s.0.time,
+            pose: sloth_pose(&s.0, loco),
+        });
+    }
+    let loco = world.resource::<Locomotion>();
+    let traces = last_search.map_or_else(Vec::new, |b| trace_lines(&b, loco));
+    let stage_ms = world.resource::<crate::StageTimings>().history.clone();
     let report = judge.finish();
     let verdict = report.verdict(judge.tolerances());
     Ok(ScenarioResult {
@@ -152,5 +191,8 @@ pub fn run_scenario(
         frames,
         trail,
         observations,
+        poses,
+        traces,
+        stage_ms,
     })
 }
