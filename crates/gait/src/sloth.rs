@@ -45,8 +45,16 @@ const STOP_AFTER_FAILED_SEARCHES: u8 = 8;
 const STANCE_IK_TOLERANCE: f32 = 0.0015;
 /// …and every other claw this close to the grip it holds.
 const HOLD_IK_TOLERANCE: f32 = 0.003;
-/// The same while the stepping limb is at the top of its arc (transient).
-const SWING_IK_TOLERANCE: f32 = 0.004;
+/// The same while the stepping limb is on its arc (transient; checked at
+/// [`SWING_CHECKS`]).
+const SWING_IK_TOLERANCE: f32 = 0.0035;
+
+/// A limb never steps further ahead of the other limb of its girdle than this
+/// fraction of the max step, so that limb keeps a window to step into (it
+/// may not land behind this one).
+const MAX_GIRDLE_LEAD: f32 = 0.8;
+/// Back-off of the lookahead's coarse candidate scan.
+const LOOKAHEAD_STRIDE: f32 = 0.02;
 
 /// Shared read-only inputs of the kernels.
 #[derive(Clone, Copy)]
@@ -111,6 +119,9 @@ pub struct Search {
     /// Index of the next neighbour support to try once this one is exhausted
     /// (`u16::MAX` = searching the current support).
     pub neighbour: u16,
+    /// Searching backward on the current support: no forward step was left
+    /// anywhere, so the limb re-grips behind to unlock the others.
+    pub retreat: bool,
 }
 
 /// One limb.
@@ -260,6 +271,23 @@ fn smoothstep(t: f32) -> f32 {
     t * t * (3.0 - 2.0 * t)
 }
 
+/// The swing arc at progress `t` from grip `from` to grip `to` (points and
+/// surface normals): eased along the chord, lifted clear of the support.
+fn swing_point(
+    from: (Vec3, Vec3),
+    to: (Vec3, Vec3),
+    t: f32,
+    clearance: f32,
+    fallback: Vec3,
+) -> Vec3 {
+    let n = (from.1 + to.1).normalize_or(fallback);
+    let lift = clearance * (std::f32::consts::PI * t).sin();
+    from.0.lerp(to.0, smoothstep(t)) + n * lift
+}
+
+/// Swing progress points at which a step's transient stance is checked.
+const SWING_CHECKS: [f32; 3] = [0.3, 0.55, 0.8];
+
 /// Body frame for a support: (forward, up toward the support) at an axis point.
 /// Branch: up = world +Y made perpendicular to forward. Trunk: forward = the
 /// axis pointing up (head up), up = from the body toward the axis.
@@ -347,6 +375,7 @@ impl Sloth {
                 next_u: 0.0,
                 last_u: 0.0,
                 neighbour: u16::MAX,
+                retreat: false,
             },
             due: false,
         }; 4];
@@ -489,20 +518,27 @@ impl Sloth {
         })
     }
 
-    /// Whether limb `li` can step to `grip`: with the stepping limb at the top
-    /// of its arc the others still reach their grips (transient tolerance),
-    /// and at the end every limb reaches its grip (the stepping limb tightly).
-    fn step_reachable(&self, w: &World<'_>, li: usize, grip: Vec3) -> bool {
+    /// Whether limb `li` can step to `grip` (surface `normal`): with the
+    /// stepping limb at points along its arc the others still reach their
+    /// grips (transient tolerance), and at the end every limb reaches its grip
+    /// (the stepping limb tightly).
+    fn step_reachable(&self, w: &World<'_>, li: usize, grip: Vec3, normal: Vec3) -> bool {
         let mut grips = self.limbs.map(|l| l.grip.point);
-        let from = grips[li];
-        // The arc's highest point, as `body_average` will draw it (the new
-        // grip's normal is not known before the trace: use the current one).
-        let n = self.limbs[li].grip.normal;
-        grips[li] = (from + grip) * 0.5 + n * w.cfg.swing_clearance_m;
+        let from = (grips[li], self.limbs[li].grip.normal);
+        // Points of the arc as `body_average` will draw it.
         let mut mid_tol = [SWING_IK_TOLERANCE; 4];
         mid_tol[li] = f32::INFINITY;
-        if !self.stance_reachable(w, &grips, mid_tol) {
-            return false;
+        for t in SWING_CHECKS {
+            grips[li] = swing_point(
+                from,
+                (grip, normal),
+                t,
+                w.cfg.swing_clearance_m,
+                self.body_rot * Vec3::NEG_Y,
+            );
+            if !self.stance_reachable(w, &grips, mid_tol) {
+                return false;
+            }
         }
         grips[li] = grip;
         let mut end_tol = [HOLD_IK_TOLERANCE; 4];
@@ -534,20 +570,24 @@ impl Sloth {
             if hit.support != m.support || hit.normal.dot(m.out) < 0.3 {
                 continue;
             }
-            if !self.step_reachable(w, li, hit.point) {
+            if !self.step_reachable(w, li, hit.point, hit.normal) {
                 continue;
             }
-            chosen[li] = true;
-            let l = &mut self.limbs[li];
-            l.from = l.grip.point;
-            l.from_normal = l.grip.normal;
-            l.grip = Grip {
+            let grip = Grip {
                 point: hit.point,
                 normal: hit.normal,
                 support: m.support,
                 u: m.u,
                 sdir: m.sdir,
             };
+            if !self.leaves_a_step(w, li, grip) {
+                continue;
+            }
+            chosen[li] = true;
+            let l = &mut self.limbs[li];
+            l.from = l.grip.point;
+            l.from_normal = l.grip.normal;
+            l.grip = grip;
             l.phase = LimbPhase::Swinging;
             l.swing_t = 0.0;
             self.failed_searches = 0;
@@ -578,7 +618,9 @@ impl Sloth {
                 if cand_u < END_MARGIN || cand_u > len - END_MARGIN {
                     continue;
                 }
-                if let Some((req, meta)) = self.candidate(w, li, sr.support, cand_u, sr.sdir) {
+                if let Some((req, meta)) =
+                    self.candidate(w, li, sr.support, cand_u, sr.sdir, sr.retreat)
+                {
                     if batch.push(req, meta) {
                         queued += 1;
                     } else {
@@ -591,8 +633,8 @@ impl Sloth {
             if queued > 0 || batch.len == MAX_TRACES {
                 return;
             }
-            // This support is exhausted: try the next neighbour.
-            if !self.next_neighbour(w, li) {
+            // This support is exhausted: try the next neighbour, then a retreat.
+            if !self.next_neighbour(w, li) && !self.start_retreat(w, li) {
                 // Nothing anywhere: stay planted.
                 let l = &mut self.limbs[li];
                 l.phase = LimbPhase::Planted;
@@ -608,9 +650,31 @@ impl Sloth {
         }
     }
 
+    /// Once no forward step is left anywhere: search backward on the current
+    /// support (up to one max step behind the grip). A retreat is taken only
+    /// if it leaves another limb a forward step (see [`Self::leaves_a_step`]),
+    /// so it unlocks a stance in which every limb was stuck. False if this
+    /// limb has already retreated in this search.
+    fn start_retreat(&mut self, w: &World<'_>, li: usize) -> bool {
+        let g = self.limbs[li].grip;
+        if self.limbs[li].search.retreat {
+            return false;
+        }
+        self.limbs[li].search = Search {
+            support: g.support,
+            sdir: g.sdir,
+            next_u: g.u - g.sdir * w.cfg.min_step_m,
+            last_u: g.u - g.sdir * w.cfg.max_step_m,
+            // Neighbours are exhausted.
+            neighbour: u16::try_from(w.adjacency.neighbours(g.support).len())
+                .unwrap_or(u16::MAX - 1),
+            retreat: true,
+        };
+        true
+    }
+
     /// Sets up the search on the next admissible neighbour support. False when none is left.
     fn next_neighbour(&mut self, w: &World<'_>, li: usize) -> bool {
-        let scene = w.scene();
         let limb = Limb::ALL[li];
         let cur = self.limbs[li].grip;
         let neighbours = w.adjacency.neighbours(cur.support);
@@ -627,31 +691,110 @@ impl Sloth {
         while k < neighbours.len() {
             let sid = neighbours[k];
             k += 1;
-            let s2 = scene.support(sid);
             // Hind limbs only follow onto a support a fore limb already holds,
             // and leave a trunk only when no fore limb is on it.
             if !limb.is_fore() && (!fore_supports.contains(&sid) || fore_on_cur) {
                 continue;
             }
-            let root = self.limbs[li].root;
-            let entry = project(s2, (cur.point + root) * 0.5);
-            if entry.point.distance(root) > w.rig.reach {
-                continue;
+            if let Some(search) = self.neighbour_search(w, li, sid, k as u16) {
+                self.limbs[li].search = search;
+                return true;
             }
-            let sdir = self.choose_sdir(w, sid, entry.tangent);
-            let u0 = entry.u + sdir * w.cfg.search_distance_m;
-            let last = entry.u - sdir * 0.15;
-            self.limbs[li].search = Search {
-                support: sid,
-                sdir,
-                next_u: u0,
-                last_u: last,
-                neighbour: k as u16,
-            };
-            return true;
         }
         self.limbs[li].search.neighbour = k as u16;
         false
+    }
+
+    /// The candidate range of limb `li` on neighbour support `sid`, if its
+    /// axis comes within reach of the limb's root.
+    fn neighbour_search(&self, w: &World<'_>, li: usize, sid: SupportId, k: u16) -> Option<Search> {
+        let s2 = w.scene().support(sid);
+        let cur = self.limbs[li].grip;
+        let root = self.limbs[li].root;
+        let entry = project(s2, (cur.point + root) * 0.5);
+        if entry.point.distance(root) > w.rig.reach {
+            return None;
+        }
+        let sdir = self.choose_sdir(w, sid, entry.tangent);
+        Some(Search {
+            support: sid,
+            sdir,
+            next_u: entry.u + sdir * w.cfg.search_distance_m,
+            last_u: entry.u - sdir * 0.15,
+            neighbour: k,
+            retreat: false,
+        })
+    }
+
+    /// Lookahead: after limb `li` steps to `grip`, at least one other limb
+    /// (tried in footfall order from the next) still has a step (cheap checks
+    /// and reach, without traces). Keeps the greedy farthest-first search
+    /// out of stances from which no limb can move.
+    fn leaves_a_step(&self, w: &World<'_>, li: usize, grip: Grip) -> bool {
+        let mut next = *self;
+        next.limbs[li].grip = grip;
+        next.limbs[li].target = grip.point;
+        let grips = next.limbs.map(|l| l.grip.point);
+        (next.body_pos, next.body_rot) = next.body_for_targets(w, &grips);
+        for lj in 0..4 {
+            let root = w.rig.root_ws(lj, next.body_pos, next.body_rot);
+            next.limbs[lj].root = root.position.into();
+        }
+        let offsets = w.cfg.phase_offsets();
+        let mut order = [0usize, 1, 2, 3];
+        order.sort_by(|&a, &b| {
+            let da = (offsets[a] - offsets[li]).rem_euclid(1.0);
+            let db = (offsets[b] - offsets[li]).rem_euclid(1.0);
+            da.total_cmp(&db)
+        });
+        order
+            .into_iter()
+            .filter(|&lj| lj != li)
+            .any(|lj| next.has_step(w, lj))
+    }
+
+    /// Whether limb `li` has any candidate passing the cheap checks and the
+    /// reach check on its support or an admissible neighbour (no traces).
+    fn has_step(&self, w: &World<'_>, li: usize) -> bool {
+        let limb = Limb::ALL[li];
+        let g = self.limbs[li].grip;
+        let scan = |sr: &Search| {
+            let len = w.scene().support(sr.support).length();
+            let mut u = sr.next_u;
+            while (u - sr.last_u) * sr.sdir >= -1e-6 {
+                if (END_MARGIN..=len - END_MARGIN).contains(&u)
+                    && self
+                        .candidate(w, li, sr.support, u, sr.sdir, false)
+                        .is_some()
+                {
+                    return true;
+                }
+                u -= sr.sdir * LOOKAHEAD_STRIDE;
+            }
+            false
+        };
+        let own = Search {
+            support: g.support,
+            sdir: g.sdir,
+            next_u: g.u + g.sdir * w.cfg.search_distance_m,
+            last_u: g.u,
+            neighbour: u16::MAX,
+            retreat: false,
+        };
+        if scan(&own) {
+            return true;
+        }
+        let fore_supports = [
+            self.limbs[Limb::LF.index()].grip.support,
+            self.limbs[Limb::RF.index()].grip.support,
+        ];
+        let fore_on_cur = fore_supports.contains(&g.support);
+        w.adjacency.neighbours(g.support).iter().any(|&sid| {
+            (limb.is_fore() || (fore_supports.contains(&sid) && !fore_on_cur))
+                && self
+                    .neighbour_search(w, li, sid, 0)
+                    .is_some_and(|sr| scan(&sr))
+        })
     }
 
     /// Travel direction along a new support: toward the goal if it is on it,
@@ -683,6 +826,7 @@ impl Sloth {
         sid: SupportId,
         u: f32,
         sdir: f32,
+        retreat: bool,
     ) -> Option<(TraceRequest, Candidate)> {
         let limb = Limb::ALL[li];
         let s = w.scene().support(sid);
@@ -704,7 +848,12 @@ impl Sloth {
         } else {
             0.0
         };
-        if step < min_step || dist > w.cfg.max_step_m {
+        let step_ok = if retreat {
+            step <= -w.cfg.min_step_m
+        } else {
+            step >= min_step
+        };
+        if !step_ok || dist > w.cfg.max_step_m {
             return None;
         }
         // Leg order: hind never ahead of a fore limb; never behind the opposite limb of the girdle.
@@ -715,10 +864,11 @@ impl Sloth {
             return None;
         }
         let opp = self.limbs[limb.opposite().index()].grip.point;
-        if (approx - opp).dot(travel) < 0.0 {
+        let lead = (approx - opp).dot(travel);
+        if !(0.0..=MAX_GIRDLE_LEAD * w.cfg.max_step_m).contains(&lead) {
             return None;
         }
-        if !self.step_reachable(w, li, approx) {
+        if !self.step_reachable(w, li, approx, out) {
             return None;
         }
         let origin = a.point + out * (a.radius + TRACE_STANDOFF);
@@ -749,11 +899,13 @@ impl Sloth {
                 LimbPhase::Swinging => {
                     let dur = w.cfg.swing_duration(Limb::ALL[li]);
                     l.swing_t = (l.swing_t + dt / dur).min(1.0);
-                    let s = smoothstep(l.swing_t);
-                    let n =
-                        (l.from_normal + l.grip.normal).normalize_or(self.body_rot * Vec3::NEG_Y);
-                    let lift = w.cfg.swing_clearance_m * (std::f32::consts::PI * l.swing_t).sin();
-                    l.target = l.from.lerp(l.grip.point, s) + n * lift;
+                    l.target = swing_point(
+                        (l.from, l.from_normal),
+                        (l.grip.point, l.grip.normal),
+                        l.swing_t,
+                        w.cfg.swing_clearance_m,
+                        self.body_rot * Vec3::NEG_Y,
+                    );
                     if l.swing_t >= 1.0 {
                         l.phase = LimbPhase::Planted;
                         l.target = l.grip.point;
@@ -856,6 +1008,7 @@ impl Sloth {
                 next_u: g.u + g.sdir * w.cfg.search_distance_m,
                 last_u: g.u,
                 neighbour: u16::MAX,
+                retreat: false,
             };
             self.queue_candidates(w, li, batch);
         }
