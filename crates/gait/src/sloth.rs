@@ -135,6 +135,8 @@ pub struct LimbState {
     pub from: Vec3,
     /// Surface normal at the swing start.
     pub from_normal: Vec3,
+    /// Support held at the swing start.
+    pub from_support: SupportId,
     /// Swing progress 0..1.
     pub swing_t: f32,
     /// IK target this frame.
@@ -285,6 +287,22 @@ fn swing_point(
     from.0.lerp(to.0, smoothstep(t)) + n * lift
 }
 
+/// 1 for a trunk, 0 for a branch; from `a` to `b` eased by swing progress `t`.
+fn trunk_blend(w: &World<'_>, a: SupportId, b: SupportId, t: f32) -> f32 {
+    let k = |sid| f32::from(w.scene().support(sid).kind == SupportKind::Trunk);
+    let (ka, kb) = (k(a), k(b));
+    ka + (kb - ka) * smoothstep(t)
+}
+
+/// Formula 7's offset of the body below the paws for limbs with trunk
+/// weights `weights`: the branch offset, blended toward the trunk offset by
+/// the share of limbs on a trunk.
+fn body_offset(w: &World<'_>, weights: [f32; 4]) -> f32 {
+    let trunk = w.cfg.trunk_body_offset_m.unwrap_or(w.body_offset);
+    let share = weights.iter().sum::<f32>() * 0.25;
+    w.body_offset + (trunk - w.body_offset) * share
+}
+
 /// Swing progress points at which a step's transient stance is checked.
 const SWING_CHECKS: [f32; 3] = [0.3, 0.55, 0.8];
 
@@ -364,6 +382,7 @@ impl Sloth {
             },
             from: c.point,
             from_normal: Vec3::Y,
+            from_support: hint.support,
             swing_t: 0.0,
             target: c.point,
             pose: ChainPose::NEUTRAL,
@@ -427,17 +446,28 @@ impl Sloth {
                 let out = sloth.limbs[li].grip.normal;
                 let u0 = sloth.limbs[li].grip.u;
                 let mut best = (f32::INFINITY, u0, sloth.limbs[li].pose);
+                // Reachable grips: the middle of the reachable run (the
+                // stance then has room both ways); else the nearest miss.
+                let mut reachable = [(0.0f32, ChainPose::NEUTRAL); 31];
+                let mut n_reachable = 0;
                 for k in -15..=15 {
                     let u = (u0 + k as f32 * 0.01).clamp(END_MARGIN, len - END_MARGIN);
                     let a = axis_at(s, u);
                     let p = a.point + out * a.radius;
                     let mut pose = ChainPose::NEUTRAL;
                     let r = slothsim_rig::solve(&w.rig.chains[li], root, p, &mut pose, &cold);
-                    // Prefer reachable grips nearest the neutral spacing.
+                    if r.error <= STANCE_IK_TOLERANCE {
+                        reachable[n_reachable] = (u, pose);
+                        n_reachable += 1;
+                    }
                     let score = r.error + 0.001 * (k as f32).abs();
                     if score < best.0 {
                         best = (score, u, pose);
                     }
+                }
+                if n_reachable > 0 {
+                    let (u, pose) = reachable[n_reachable / 2];
+                    best = (0.0, u, pose);
                 }
                 let a = axis_at(s, best.1);
                 let l = &mut sloth.limbs[li];
@@ -490,20 +520,37 @@ impl Sloth {
 
     /// Formulas 6 and 7 for the current targets: (position, rotation).
     fn averaged_body(&self, w: &World<'_>) -> (Vec3, Quat) {
-        self.body_for_targets(w, &self.targets())
+        let offset = body_offset(w, self.trunk_weights(w));
+        self.body_for_targets(w, &self.targets(), offset)
     }
 
-    fn body_for_targets(&self, w: &World<'_>, t: &[Vec3; 4]) -> (Vec3, Quat) {
+    fn body_for_targets(&self, w: &World<'_>, t: &[Vec3; 4], offset: f32) -> (Vec3, Quat) {
         let (f, up) = self.body_frame(w, t);
         let mean = (t[0] + t[1] + t[2] + t[3]) * 0.25;
-        (mean - up * w.body_offset, rotation_from(f, up))
+        (mean - up * offset, rotation_from(f, up))
+    }
+
+    /// How much each limb is on a trunk (1) or a branch (0); a swinging limb
+    /// blends its old and new support as it travels, so the body offset that
+    /// depends on it (see [`body_offset`]) changes continuously.
+    fn trunk_weights(&self, w: &World<'_>) -> [f32; 4] {
+        self.limbs.map(|l| match l.phase {
+            LimbPhase::Swinging => trunk_blend(w, l.from_support, l.grip.support, l.swing_t),
+            _ => trunk_blend(w, l.grip.support, l.grip.support, 1.0),
+        })
     }
 
     /// Whether every limb can hold `grips` from the body those grips imply:
     /// a distance test, then a CCD solve within the joint limits (warm from
     /// the limb's current pose) that must end within `tol[i]` of the grip.
-    fn stance_reachable(&self, w: &World<'_>, grips: &[Vec3; 4], tol: [f32; 4]) -> bool {
-        let (pos, rot) = self.body_for_targets(w, grips);
+    fn stance_reachable(
+        &self,
+        w: &World<'_>,
+        grips: &[Vec3; 4],
+        tol: [f32; 4],
+        offset: f32,
+    ) -> bool {
+        let (pos, rot) = self.body_for_targets(w, grips, offset);
         let max = w.rig.reach * w.cfg.max_reach_fraction;
         let min = w.rig.reach * MIN_REACH_FRACTION;
         (0..4).all(|i| {
@@ -522,9 +569,17 @@ impl Sloth {
     /// stepping limb at points along its arc the others still reach their
     /// grips (transient tolerance), and at the end every limb reaches its grip
     /// (the stepping limb tightly).
-    fn step_reachable(&self, w: &World<'_>, li: usize, grip: Vec3, normal: Vec3) -> bool {
+    fn step_reachable(
+        &self,
+        w: &World<'_>,
+        li: usize,
+        grip: Vec3,
+        normal: Vec3,
+        support: SupportId,
+    ) -> bool {
         let mut grips = self.limbs.map(|l| l.grip.point);
         let from = (grips[li], self.limbs[li].grip.normal);
+        let mut weights = self.trunk_weights(w);
         // Points of the arc as `body_average` will draw it.
         let mut mid_tol = [SWING_IK_TOLERANCE; 4];
         mid_tol[li] = f32::INFINITY;
@@ -536,14 +591,16 @@ impl Sloth {
                 w.cfg.swing_clearance_m,
                 self.body_rot * Vec3::NEG_Y,
             );
-            if !self.stance_reachable(w, &grips, mid_tol) {
+            weights[li] = trunk_blend(w, self.limbs[li].grip.support, support, t);
+            if !self.stance_reachable(w, &grips, mid_tol, body_offset(w, weights)) {
                 return false;
             }
         }
+        weights[li] = trunk_blend(w, support, support, 1.0);
         grips[li] = grip;
         let mut end_tol = [HOLD_IK_TOLERANCE; 4];
         end_tol[li] = STANCE_IK_TOLERANCE;
-        self.stance_reachable(w, &grips, end_tol)
+        self.stance_reachable(w, &grips, end_tol, body_offset(w, weights))
     }
 
     /// Travel vector (unit): body forward × dir.
@@ -570,7 +627,7 @@ impl Sloth {
             if hit.support != m.support || hit.normal.dot(m.out) < 0.3 {
                 continue;
             }
-            if !self.step_reachable(w, li, hit.point, hit.normal) {
+            if !self.step_reachable(w, li, hit.point, hit.normal, m.support) {
                 continue;
             }
             let grip = Grip {
@@ -587,6 +644,7 @@ impl Sloth {
             let l = &mut self.limbs[li];
             l.from = l.grip.point;
             l.from_normal = l.grip.normal;
+            l.from_support = l.grip.support;
             l.grip = grip;
             l.phase = LimbPhase::Swinging;
             l.swing_t = 0.0;
@@ -735,7 +793,8 @@ impl Sloth {
         next.limbs[li].grip = grip;
         next.limbs[li].target = grip.point;
         let grips = next.limbs.map(|l| l.grip.point);
-        (next.body_pos, next.body_rot) = next.body_for_targets(w, &grips);
+        let offset = body_offset(w, next.trunk_weights(w));
+        (next.body_pos, next.body_rot) = next.body_for_targets(w, &grips, offset);
         for lj in 0..4 {
             let root = w.rig.root_ws(lj, next.body_pos, next.body_rot);
             next.limbs[lj].root = root.position.into();
@@ -868,7 +927,7 @@ impl Sloth {
         if !(0.0..=MAX_GIRDLE_LEAD * w.cfg.max_step_m).contains(&lead) {
             return None;
         }
-        if !self.step_reachable(w, li, approx, out) {
+        if !self.step_reachable(w, li, approx, out, sid) {
             return None;
         }
         let origin = a.point + out * (a.radius + TRACE_STANDOFF);
