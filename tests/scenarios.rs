@@ -60,6 +60,17 @@ fn trunk_climb_up_head_up() {
 }
 
 #[test]
+fn trunk_climb_down_tail_first_head_up() {
+    let r = run("trunk", None, TrunkVariant::Down, Profile::Free);
+    assert_measures_within_issue_limits(&r);
+    assert_eq!(r.judge.head_below_hips_on_trunk_frames, 0);
+    // Tail first: the body ends lower than it started, still facing up.
+    let (first, last) = (&r.observations[0], r.observations.last().unwrap());
+    assert!(last.body_pos.y < first.body_pos.y - 1.5);
+    assert!((last.body_rot * glam::Vec3::Z).y > 0.9);
+}
+
+#[test]
 fn height_change_inside_the_thesis_range_reaches_the_next_branch() {
     for angle in [140.0, 160.0, 195.0] {
         let r = run(
@@ -74,7 +85,8 @@ fn height_change_inside_the_thesis_range_reaches_the_next_branch() {
 
 #[test]
 fn turn_onto_the_next_branch() {
-    for angle in [110.0, 160.0, 180.0] {
+    // The thesis range is 95° < a < 175°: both ends and the middle.
+    for angle in [95.0, 100.0, 125.0, 140.0, 170.0, 180.0] {
         let r = run("turn", Some(angle), TrunkVariant::Up, Profile::Free);
         assert_measures_within_issue_limits(&r);
     }

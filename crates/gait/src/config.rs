@@ -65,6 +65,10 @@ pub struct LocomotionConfig {
     /// matrix for the default rig (0.27 m: no turn passes; 0.31 m: fewer). `None`
     /// = derive it from the rig (80 % of the neutral paw height).
     pub body_vertical_offset_m: Option<f32>,
+    /// The same while on a trunk (blended by the share of limbs on a trunk):
+    /// the hind limbs' joint limits leave them a wide workspace only with the
+    /// body lower, which climbing down tail first needs. `None` = as on branches.
+    pub trunk_body_offset_m: Option<f32>,
     /// Smoothing time constant of the body rotation (formula 6).
     pub body_smoothing_s: f32,
     /// Clearance of the swing arc above the support surface.
@@ -116,6 +120,7 @@ impl LocomotionConfig {
             min_step_m: 0.03,
             claw_length_m: 0.05,
             body_vertical_offset_m: Some(0.295),
+            trunk_body_offset_m: Some(0.34),
             body_smoothing_s: 0.05,
             swing_clearance_m: 0.05,
             trunk_grip_angle_deg: 60.0,
@@ -258,6 +263,9 @@ impl LocomotionConfig {
         check("claw_length_m", self.claw_length_m, 0.0, 0.2)?;
         if let Some(o) = self.body_vertical_offset_m {
             check("body_vertical_offset_m", o, 0.0, reach)?;
+        }
+        if let Some(o) = self.trunk_body_offset_m {
+            check("trunk_body_offset_m", o, 0.0, reach)?;
         }
         check("body_smoothing_s", self.body_smoothing_s, 0.0, 5.0)?;
         check("swing_clearance_m", self.swing_clearance_m, 0.0, 0.5)?;

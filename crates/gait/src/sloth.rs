@@ -50,8 +50,16 @@ const STANCE_IK_TOLERANCE: f32 = 0.0015;
 const HOLD_IK_TOLERANCE: f32 = 0.003;
 /// A step may not put the body deeper than this into a support.
 const STANCE_MAX_PENETRATION: f32 = 0.005;
-/// The same while the stepping limb is at the top of its arc (transient).
-const SWING_IK_TOLERANCE: f32 = 0.004;
+/// The same while the stepping limb is on its arc (transient; checked at
+/// [`SWING_CHECKS`]).
+const SWING_IK_TOLERANCE: f32 = 0.0035;
+
+/// A limb never steps further ahead of the other limb of its girdle than this
+/// fraction of the max step, so that limb keeps a window to step into (it
+/// may not land behind this one).
+const MAX_GIRDLE_LEAD: f32 = 0.8;
+/// Back-off of the lookahead's coarse candidate scan.
+const LOOKAHEAD_STRIDE: f32 = 0.02;
 
 /// Shared read-only inputs of the kernels.
 #[derive(Clone, Copy)]
@@ -118,6 +126,9 @@ pub struct Search {
     /// Index of the next neighbour support to try once this one is exhausted
     /// (`u16::MAX` = searching the current support).
     pub neighbour: u16,
+    /// Searching backward on the current support: no forward step was left
+    /// anywhere, so the limb re-grips behind to unlock the others.
+    pub retreat: bool,
 }
 
 /// One limb.
@@ -131,6 +142,8 @@ pub struct LimbState {
     pub from: Vec3,
     /// Surface normal at the swing start.
     pub from_normal: Vec3,
+    /// Support held at the swing start.
+    pub from_support: SupportId,
     /// Swing progress 0..1.
     pub swing_t: f32,
     /// IK target this frame.
@@ -309,6 +322,39 @@ fn smoothstep(t: f32) -> f32 {
     t * t * (3.0 - 2.0 * t)
 }
 
+/// The swing arc at progress `t` from grip `from` to grip `to` (points and
+/// surface normals): eased along the chord, lifted clear of the support.
+fn swing_point(
+    from: (Vec3, Vec3),
+    to: (Vec3, Vec3),
+    t: f32,
+    clearance: f32,
+    fallback: Vec3,
+) -> Vec3 {
+    let n = (from.1 + to.1).normalize_or(fallback);
+    let lift = clearance * (std::f32::consts::PI * t).sin();
+    from.0.lerp(to.0, smoothstep(t)) + n * lift
+}
+
+/// 1 for a trunk, 0 for a branch; from `a` to `b` eased by swing progress `t`.
+fn trunk_blend(w: &World<'_>, a: SupportId, b: SupportId, t: f32) -> f32 {
+    let k = |sid| f32::from(w.scene().support(sid).kind == SupportKind::Trunk);
+    let (ka, kb) = (k(a), k(b));
+    ka + (kb - ka) * smoothstep(t)
+}
+
+/// Formula 7's offset of the body below the paws for limbs with trunk
+/// weights `weights`: the branch offset, blended toward the trunk offset by
+/// the share of limbs on a trunk.
+fn body_offset(w: &World<'_>, weights: [f32; 4]) -> f32 {
+    let trunk = w.cfg.trunk_body_offset_m.unwrap_or(w.body_offset);
+    let share = weights.iter().sum::<f32>() * 0.25;
+    w.body_offset + (trunk - w.body_offset) * share
+}
+
+/// Swing progress points at which a step's transient stance is checked.
+const SWING_CHECKS: [f32; 3] = [0.3, 0.55, 0.8];
+
 /// Body frame for a support: (forward, up toward the support) at an axis point.
 /// Branch: up = world +Y made perpendicular to forward. Trunk: forward = the
 /// axis pointing up (head up), up = from the body toward the axis.
@@ -385,6 +431,7 @@ impl Sloth {
             },
             from: c.point,
             from_normal: Vec3::Y,
+            from_support: hint.support,
             swing_t: 0.0,
             target: c.point,
             pose: ChainPose::NEUTRAL,
@@ -396,6 +443,7 @@ impl Sloth {
                 next_u: 0.0,
                 last_u: 0.0,
                 neighbour: u16::MAX,
+                retreat: false,
             },
             due: false,
         }; 4];
@@ -452,17 +500,28 @@ impl Sloth {
                 let out = sloth.limbs[li].grip.normal;
                 let u0 = sloth.limbs[li].grip.u;
                 let mut best = (f32::INFINITY, u0, sloth.limbs[li].pose);
+                // Reachable grips: the middle of the reachable run (the
+                // stance then has room both ways); else the nearest miss.
+                let mut reachable = [(0.0f32, ChainPose::NEUTRAL); 31];
+                let mut n_reachable = 0;
                 for k in -15..=15 {
                     let u = (u0 + k as f32 * 0.01).clamp(END_MARGIN, len - END_MARGIN);
                     let a = axis_at(s, u);
                     let p = a.point + out * a.radius;
                     let mut pose = ChainPose::NEUTRAL;
                     let r = slothsim_rig::solve(&w.rig.chains[li], root, p, &mut pose, &cold);
-                    // Prefer reachable grips nearest the neutral spacing.
+                    if r.error <= STANCE_IK_TOLERANCE {
+                        reachable[n_reachable] = (u, pose);
+                        n_reachable += 1;
+                    }
                     let score = r.error + 0.001 * (k as f32).abs();
                     if score < best.0 {
                         best = (score, u, pose);
                     }
+                }
+                if n_reachable > 0 {
+                    let (u, pose) = reachable[n_reachable / 2];
+                    best = (0.0, u, pose);
                 }
                 let a = axis_at(s, best.1);
                 let l = &mut sloth.limbs[li];
@@ -515,20 +574,37 @@ impl Sloth {
 
     /// Formulas 6 and 7 for the current targets: (position, rotation).
     fn averaged_body(&self, w: &World<'_>) -> (Vec3, Quat) {
-        self.body_for_targets(w, &self.targets())
+        let offset = body_offset(w, self.trunk_weights(w));
+        self.body_for_targets(w, &self.targets(), offset)
     }
 
-    fn body_for_targets(&self, w: &World<'_>, t: &[Vec3; 4]) -> (Vec3, Quat) {
+    fn body_for_targets(&self, w: &World<'_>, t: &[Vec3; 4], offset: f32) -> (Vec3, Quat) {
         let (f, up) = self.body_frame(w, t);
         let mean = (t[0] + t[1] + t[2] + t[3]) * 0.25;
-        (mean - up * w.body_offset, rotation_from(f, up))
+        (mean - up * offset, rotation_from(f, up))
+    }
+
+    /// How much each limb is on a trunk (1) or a branch (0); a swinging limb
+    /// blends its old and new support as it travels, so the body offset that
+    /// depends on it (see [`body_offset`]) changes continuously.
+    fn trunk_weights(&self, w: &World<'_>) -> [f32; 4] {
+        self.limbs.map(|l| match l.phase {
+            LimbPhase::Swinging => trunk_blend(w, l.from_support, l.grip.support, l.swing_t),
+            _ => trunk_blend(w, l.grip.support, l.grip.support, 1.0),
+        })
     }
 
     /// Whether every limb can hold `grips` from the body those grips imply:
     /// a distance test, then a CCD solve within the joint limits (warm from
     /// the limb's current pose) that must end within `tol[i]` of the grip.
-    fn stance_reachable(&self, w: &World<'_>, grips: &[Vec3; 4], tol: [f32; 4]) -> bool {
-        let (pos, rot) = self.body_for_targets(w, grips);
+    fn stance_reachable(
+        &self,
+        w: &World<'_>,
+        grips: &[Vec3; 4],
+        tol: [f32; 4],
+        offset: f32,
+    ) -> bool {
+        let (pos, rot) = self.body_for_targets(w, grips, offset);
         let max = w.rig.reach * w.cfg.max_reach_fraction;
         let min = w.rig.reach * MIN_REACH_FRACTION;
         (0..4).all(|i| {
@@ -543,32 +619,51 @@ impl Sloth {
         })
     }
 
-    /// Whether limb `li` can step to `grip`: with the stepping limb at the top
-    /// of its arc the others still reach their grips (transient tolerance),
-    /// and at the end every limb reaches its grip (the stepping limb tightly).
-    fn step_reachable(&self, w: &World<'_>, li: usize, grip: Vec3) -> bool {
+    /// Whether limb `li` can step to `grip` (surface `normal`): with the
+    /// stepping limb at points along its arc the others still reach their
+    /// grips (transient tolerance), and at the end every limb reaches its grip
+    /// (the stepping limb tightly).
+    fn step_reachable(
+        &self,
+        w: &World<'_>,
+        li: usize,
+        grip: Vec3,
+        normal: Vec3,
+        support: SupportId,
+    ) -> bool {
         let mut grips = self.limbs.map(|l| l.grip.point);
-        let from = grips[li];
-        // The arc's highest point, as `body_average` will draw it (the new
-        // grip's normal is not known before the trace: use the current one).
-        let n = self.limbs[li].grip.normal;
-        grips[li] = (from + grip) * 0.5 + n * w.cfg.swing_clearance_m;
+        let from = (grips[li], self.limbs[li].grip.normal);
+        let mut weights = self.trunk_weights(w);
+        // Points of the arc as `body_average` will draw it.
         let mut mid_tol = [SWING_IK_TOLERANCE; 4];
         mid_tol[li] = f32::INFINITY;
-        if !self.stance_reachable(w, &grips, mid_tol) {
-            return false;
+        for t in SWING_CHECKS {
+            grips[li] = swing_point(
+                from,
+                (grip, normal),
+                t,
+                w.cfg.swing_clearance_m,
+                self.body_rot * Vec3::NEG_Y,
+            );
+            weights[li] = trunk_blend(w, self.limbs[li].grip.support, support, t);
+            if !self.stance_reachable(w, &grips, mid_tol, body_offset(w, weights)) {
+                return false;
+            }
         }
+        weights[li] = trunk_blend(w, support, support, 1.0);
         grips[li] = grip;
         let mut end_tol = [HOLD_IK_TOLERANCE; 4];
         end_tol[li] = STANCE_IK_TOLERANCE;
-        self.stance_reachable(w, &grips, end_tol) && !self.stance_penetrates(w, &grips)
+        let offset = body_offset(w, weights);
+        self.stance_reachable(w, &grips, end_tol, offset)
+            && !self.stance_penetrates(w, &grips, offset)
     }
 
     /// Whether the body these grips imply would enter a support near them
     /// (e.g. walking a branch into its trunk).
-    fn stance_penetrates(&self, w: &World<'_>, grips: &[Vec3; 4]) -> bool {
+    fn stance_penetrates(&self, w: &World<'_>, grips: &[Vec3; 4], offset: f32) -> bool {
         let scene = w.scene();
-        let (pos, rot) = self.body_for_targets(w, grips);
+        let (pos, rot) = self.body_for_targets(w, grips, offset);
         let torso = [pos + rot * w.rig.torso_ms[0], pos + rot * w.rig.torso_ms[1]];
         let near = self.limbs[0].grip.support;
         std::iter::once(&near)
@@ -600,20 +695,25 @@ impl Sloth {
             if hit.support != m.support || hit.normal.dot(m.out) < 0.3 {
                 continue;
             }
-            if !self.step_reachable(w, li, hit.point) {
+            if !self.step_reachable(w, li, hit.point, hit.normal, m.support) {
                 continue;
             }
-            chosen[li] = true;
-            let l = &mut self.limbs[li];
-            l.from = l.grip.point;
-            l.from_normal = l.grip.normal;
-            l.grip = Grip {
+            let grip = Grip {
                 point: hit.point,
                 normal: hit.normal,
                 support: m.support,
                 u: m.u,
                 sdir: m.sdir,
             };
+            if !self.leaves_a_step(w, li, grip) {
+                continue;
+            }
+            chosen[li] = true;
+            let l = &mut self.limbs[li];
+            l.from = l.grip.point;
+            l.from_normal = l.grip.normal;
+            l.from_support = l.grip.support;
+            l.grip = grip;
             l.phase = LimbPhase::Swinging;
             l.swing_t = 0.0;
             self.failed_searches = 0;
@@ -645,7 +745,9 @@ impl Sloth {
                 if cand_u < END_MARGIN || cand_u > len - END_MARGIN {
                     continue;
                 }
-                if let Some((req, meta)) = self.candidate(w, li, sr.support, cand_u, sr.sdir) {
+                if let Some((req, meta)) =
+                    self.candidate(w, li, sr.support, cand_u, sr.sdir, sr.retreat)
+                {
                     if batch.push(req, meta) {
                         queued += 1;
                     } else {
@@ -658,8 +760,8 @@ impl Sloth {
             if queued > 0 || batch.len == MAX_TRACES {
                 return;
             }
-            // This support is exhausted: try the next neighbour.
-            if !self.next_neighbour(w, li) {
+            // This support is exhausted: try the next neighbour, then a retreat.
+            if !self.next_neighbour(w, li) && !self.start_retreat(w, li) {
                 // Nothing anywhere: stay planted.
                 let l = &mut self.limbs[li];
                 l.phase = LimbPhase::Planted;
@@ -700,9 +802,31 @@ impl Sloth {
         limb.is_fore() == (self.dir > 0.0)
     }
 
+    /// Once no forward step is left anywhere: search backward on the current
+    /// support (up to one max step behind the grip). A retreat is taken only
+    /// if it leaves another limb a forward step (see [`Self::leaves_a_step`]),
+    /// so it unlocks a stance in which every limb was stuck. False if this
+    /// limb has already retreated in this search.
+    fn start_retreat(&mut self, w: &World<'_>, li: usize) -> bool {
+        let g = self.limbs[li].grip;
+        if self.limbs[li].search.retreat {
+            return false;
+        }
+        self.limbs[li].search = Search {
+            support: g.support,
+            sdir: g.sdir,
+            next_u: g.u - g.sdir * w.cfg.min_step_m,
+            last_u: g.u - g.sdir * w.cfg.max_step_m,
+            // Neighbours are exhausted.
+            neighbour: u16::try_from(w.adjacency.neighbours(g.support).len())
+                .unwrap_or(u16::MAX - 1),
+            retreat: true,
+        };
+        true
+    }
+
     /// Sets up the search on the next admissible neighbour support. False when none is left.
     fn next_neighbour(&mut self, w: &World<'_>, li: usize) -> bool {
-        let scene = w.scene();
         let limb = Limb::ALL[li];
         let cur = self.limbs[li].grip;
         let neighbours = w.adjacency.neighbours(cur.support);
@@ -729,8 +853,8 @@ impl Sloth {
         while k < neighbours.len() {
             let sid = neighbours[(k + rotate) % neighbours.len()];
             k += 1;
-            let s2 = scene.support(sid);
-            if self.wander && s2.kind != scene.support(cur.support).kind {
+            let scene = w.scene();
+            if self.wander && scene.support(sid).kind != scene.support(cur.support).kind {
                 continue;
             }
             // Trailing limbs only follow onto a support a leading limb already
@@ -738,25 +862,106 @@ impl Sloth {
             if !self.leads(limb) && (!lead_supports.contains(&sid) || lead_on_cur) {
                 continue;
             }
-            let root = self.limbs[li].root;
-            let entry = project(s2, (cur.point + root) * 0.5);
-            if entry.point.distance(root) > w.rig.reach {
-                continue;
+            if let Some(search) = self.neighbour_search(w, li, sid, k as u16) {
+                self.limbs[li].search = search;
+                return true;
             }
-            let sdir = self.choose_sdir(w, sid, entry.tangent);
-            let u0 = entry.u + sdir * w.cfg.search_distance_m;
-            let last = entry.u - sdir * 0.15;
-            self.limbs[li].search = Search {
-                support: sid,
-                sdir,
-                next_u: u0,
-                last_u: last,
-                neighbour: k as u16,
-            };
-            return true;
         }
         self.limbs[li].search.neighbour = k as u16;
         false
+    }
+
+    /// The candidate range of limb `li` on neighbour support `sid`, if its
+    /// axis comes within reach of the limb's root.
+    fn neighbour_search(&self, w: &World<'_>, li: usize, sid: SupportId, k: u16) -> Option<Search> {
+        let s2 = w.scene().support(sid);
+        let cur = self.limbs[li].grip;
+        let root = self.limbs[li].root;
+        let entry = project(s2, (cur.point + root) * 0.5);
+        if entry.point.distance(root) > w.rig.reach {
+            return None;
+        }
+        let sdir = self.choose_sdir(w, sid, entry.tangent);
+        Some(Search {
+            support: sid,
+            sdir,
+            next_u: entry.u + sdir * w.cfg.search_distance_m,
+            last_u: entry.u - sdir * 0.15,
+            neighbour: k,
+            retreat: false,
+        })
+    }
+
+    /// Lookahead: after limb `li` steps to `grip`, at least one other limb
+    /// (tried in footfall order from the next) still has a step (cheap checks
+    /// and reach, without traces). Keeps the greedy farthest-first search
+    /// out of stances from which no limb can move.
+    fn leaves_a_step(&self, w: &World<'_>, li: usize, grip: Grip) -> bool {
+        let mut next = *self;
+        next.limbs[li].grip = grip;
+        next.limbs[li].target = grip.point;
+        let grips = next.limbs.map(|l| l.grip.point);
+        let offset = body_offset(w, next.trunk_weights(w));
+        (next.body_pos, next.body_rot) = next.body_for_targets(w, &grips, offset);
+        for lj in 0..4 {
+            let root = w.rig.root_ws(lj, next.body_pos, next.body_rot);
+            next.limbs[lj].root = root.position.into();
+        }
+        let offsets = w.cfg.phase_offsets();
+        let mut order = [0usize, 1, 2, 3];
+        order.sort_by(|&a, &b| {
+            let da = (offsets[a] - offsets[li]).rem_euclid(1.0);
+            let db = (offsets[b] - offsets[li]).rem_euclid(1.0);
+            da.total_cmp(&db)
+        });
+        order
+            .into_iter()
+            .filter(|&lj| lj != li)
+            .any(|lj| next.has_step(w, lj))
+    }
+
+    /// Whether limb `li` has any candidate passing the cheap checks and the
+    /// reach check on its support or an admissible neighbour (no traces).
+    fn has_step(&self, w: &World<'_>, li: usize) -> bool {
+        let limb = Limb::ALL[li];
+        let g = self.limbs[li].grip;
+        let scan = |sr: &Search| {
+            let len = w.scene().support(sr.support).length();
+            let mut u = sr.next_u;
+            while (u - sr.last_u) * sr.sdir >= -1e-6 {
+                if (END_MARGIN..=len - END_MARGIN).contains(&u)
+                    && self
+                        .candidate(w, li, sr.support, u, sr.sdir, false)
+                        .is_some()
+                {
+                    return true;
+                }
+                u -= sr.sdir * LOOKAHEAD_STRIDE;
+            }
+            false
+        };
+        let own = Search {
+            support: g.support,
+            sdir: g.sdir,
+            next_u: g.u + g.sdir * w.cfg.search_distance_m,
+            last_u: g.u,
+            neighbour: u16::MAX,
+            retreat: false,
+        };
+        if scan(&own) {
+            return true;
+        }
+        let fore_supports = [
+            self.limbs[Limb::LF.index()].grip.support,
+            self.limbs[Limb::RF.index()].grip.support,
+        ];
+        let fore_on_cur = fore_supports.contains(&g.support);
+        w.adjacency.neighbours(g.support).iter().any(|&sid| {
+            (limb.is_fore() || (fore_supports.contains(&sid) && !fore_on_cur))
+                && self
+                    .neighbour_search(w, li, sid, 0)
+                    .is_some_and(|sr| scan(&sr))
+        })
     }
 
     /// Travel direction along a new support: toward the goal if it is on it,
@@ -788,6 +993,7 @@ impl Sloth {
         sid: SupportId,
         u: f32,
         sdir: f32,
+        retreat: bool,
     ) -> Option<(TraceRequest, Candidate)> {
         let limb = Limb::ALL[li];
         let s = w.scene().support(sid);
@@ -810,7 +1016,12 @@ impl Sloth {
         } else {
             0.0
         };
-        if step < min_step || dist > w.cfg.max_step_m {
+        let step_ok = if retreat {
+            step <= -w.cfg.min_step_m
+        } else {
+            step >= min_step
+        };
+        if !step_ok || dist > w.cfg.max_step_m {
             return None;
         }
         // Leg order: hind never ahead of a fore limb; never behind the opposite limb of the girdle.
@@ -821,14 +1032,15 @@ impl Sloth {
             return None;
         }
         let opp = self.limbs[limb.opposite().index()].grip.point;
-        if (approx - opp).dot(travel) < 0.0 {
+        let lead = (approx - opp).dot(travel);
+        if !(0.0..=MAX_GIRDLE_LEAD * w.cfg.max_step_m).contains(&lead) {
             return None;
         }
         // Keep clear of other sloths' bodies and grips.
         if w.crowd.is_some_and(|g| g.blocked(self.id, approx)) {
             return None;
         }
-        if !self.step_reachable(w, li, approx) {
+        if !self.step_reachable(w, li, approx, out, sid) {
             return None;
         }
         let origin = a.point + out * (a.radius + TRACE_STANDOFF);
@@ -859,11 +1071,13 @@ impl Sloth {
                 LimbPhase::Swinging => {
                     let dur = w.cfg.swing_duration(Limb::ALL[li]);
                     l.swing_t = (l.swing_t + dt / dur).min(1.0);
-                    let s = smoothstep(l.swing_t);
-                    let n =
-                        (l.from_normal + l.grip.normal).normalize_or(self.body_rot * Vec3::NEG_Y);
-                    let lift = w.cfg.swing_clearance_m * (std::f32::consts::PI * l.swing_t).sin();
-                    l.target = l.from.lerp(l.grip.point, s) + n * lift;
+                    l.target = swing_point(
+                        (l.from, l.from_normal),
+                        (l.grip.point, l.grip.normal),
+                        l.swing_t,
+                        w.cfg.swing_clearance_m,
+                        self.body_rot * Vec3::NEG_Y,
+                    );
                     if l.swing_t >= 1.0 {
                         l.phase = LimbPhase::Planted;
                         l.target = l.grip.point;
@@ -966,6 +1180,7 @@ impl Sloth {
                 next_u: g.u + g.sdir * w.cfg.search_distance_m,
                 last_u: g.u,
                 neighbour: u16::MAX,
+                retreat: false,
             };
             self.queue_candidates(w, li, batch);
         }

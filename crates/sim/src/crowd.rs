@@ -673,7 +673,7 @@ impl Crowd {
 
 const MAGIC: &[u8; 16] = b"SLOTHSIM-STATE\0\0";
 /// Checkpoint format version; bump on any change of the saved data.
-pub const CHECKPOINT_VERSION: u32 = 2;
+pub const CHECKPOINT_VERSION: u32 = 3;
 
 #[derive(Serialize, Deserialize)]
 struct Checkpoint {
