@@ -646,7 +646,10 @@ impl Sloth {
                 self.body_rot * Vec3::NEG_Y,
             );
             weights[li] = trunk_blend(w, self.limbs[li].grip.support, support, t);
-            if !self.stance_reachable(w, &grips, mid_tol, body_offset(w, weights)) {
+            let offset = body_offset(w, weights);
+            if !self.stance_reachable(w, &grips, mid_tol, offset)
+                || self.stance_penetrates(w, &grips, offset)
+            {
                 return false;
             }
         }
@@ -665,10 +668,22 @@ impl Sloth {
         let scene = w.scene();
         let (pos, rot) = self.body_for_targets(w, grips, offset);
         let torso = [pos + rot * w.rig.torso_ms[0], pos + rot * w.rig.torso_ms[1]];
-        let near = self.limbs[0].grip.support;
-        std::iter::once(&near)
-            .chain(w.adjacency.neighbours(near))
-            .any(|&id| torso_penetration(scene.support(id), torso) > STANCE_MAX_PENETRATION)
+        // The supports the limbs hold and their neighbours (as the judge sees them).
+        let mut seen = [SupportId(u32::MAX); 4];
+        for (k, l) in self.limbs.iter().enumerate() {
+            let sid = l.grip.support;
+            if seen.contains(&sid) {
+                continue;
+            }
+            seen[k] = sid;
+            let deep = std::iter::once(&sid)
+                .chain(w.adjacency.neighbours(sid))
+                .any(|&id| torso_penetration(scene.support(id), torso) > STANCE_MAX_PENETRATION);
+            if deep {
+                return true;
+            }
+        }
+        false
     }
 
     /// Travel vector (unit): body forward × dir.
