@@ -30,6 +30,8 @@ use crate::rigdata::{BODY_RADIUS, RigData};
 
 /// Trace slots per sloth per frame.
 pub const MAX_TRACES: usize = 8;
+/// Reach-checked step-search candidates per limb per frame.
+const MAX_REACH_CHECKS_PER_FRAME: u32 = 8;
 /// Candidates traced per searching limb per frame.
 const CANDIDATES_PER_LIMB: usize = 4;
 /// How far outside the surface a grip trace starts.
@@ -748,20 +750,27 @@ impl Sloth {
     fn queue_candidates(&mut self, w: &World<'_>, li: usize, batch: &mut TraceBatch) {
         let scene = w.scene();
         let mut queued = 0;
+        // Reach checks (CCD solves of hypothetical stances) this frame: a
+        // search that needs more continues next frame, so no frame pays for
+        // a whole exhaustive search (crowd p95).
+        let mut checks = 0u32;
         loop {
             let sr = self.limbs[li].search;
             let s = scene.support(sr.support);
             let len = s.length();
             let mut u = sr.next_u;
             let step_sign = -sr.sdir; // back off toward the current grip
-            while queued < CANDIDATES_PER_LIMB && (u - sr.last_u) * sr.sdir >= -1e-6 {
+            while queued < CANDIDATES_PER_LIMB
+                && checks < MAX_REACH_CHECKS_PER_FRAME
+                && (u - sr.last_u) * sr.sdir >= -1e-6
+            {
                 let cand_u = u;
                 u += step_sign * w.cfg.backoff_m;
                 if cand_u < END_MARGIN || cand_u > len - END_MARGIN {
                     continue;
                 }
                 if let Some((req, meta)) =
-                    self.candidate(w, li, sr.support, cand_u, sr.sdir, sr.retreat)
+                    self.candidate(w, li, sr.support, cand_u, sr.sdir, sr.retreat, &mut checks)
                 {
                     if batch.push(req, meta) {
                         queued += 1;
@@ -772,7 +781,7 @@ impl Sloth {
                 }
             }
             self.limbs[li].search.next_u = u;
-            if queued > 0 || batch.len == MAX_TRACES {
+            if queued > 0 || batch.len == MAX_TRACES || checks >= MAX_REACH_CHECKS_PER_FRAME {
                 return;
             }
             // This support is exhausted: try the next neighbour, then a retreat.
@@ -946,7 +955,7 @@ impl Sloth {
             while (u - sr.last_u) * sr.sdir >= -1e-6 {
                 if (END_MARGIN..=len - END_MARGIN).contains(&u)
                     && self
-                        .candidate(w, li, sr.support, u, sr.sdir, false)
+                        .candidate(w, li, sr.support, u, sr.sdir, false, &mut 0)
                         .is_some()
                 {
                     return true;
@@ -1009,6 +1018,7 @@ impl Sloth {
         u: f32,
         sdir: f32,
         retreat: bool,
+        checks: &mut u32,
     ) -> Option<(TraceRequest, Candidate)> {
         let limb = Limb::ALL[li];
         let s = w.scene().support(sid);
@@ -1055,6 +1065,7 @@ impl Sloth {
         if w.crowd.is_some_and(|g| g.blocked(self.id, approx)) {
             return None;
         }
+        *checks += 1;
         if !self.step_reachable(w, li, approx, out, sid) {
             return None;
         }
