@@ -1010,6 +1010,7 @@ impl Sloth {
 
     /// A candidate at arc length `u` of support `sid`, if it passes the cheap
     /// checks (step length, leg order, reach at the predicted stance): its trace.
+    #[allow(clippy::too_many_arguments)] // one call site each; a struct would only rename them
     fn candidate(
         &self,
         w: &World<'_>,
