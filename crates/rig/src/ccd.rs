@@ -23,10 +23,13 @@
 //! the joint is skipped; a target beyond reach leaves the limb stretched toward it
 //! within its limits (`reached == false`, `error` = remaining distance).
 
-use glam::{Quat, Vec3, Vec3A};
+use glam::{Quat, Vec3, Vec3A, Vec4};
 
 use crate::chain::{CHAIN_JOINTS, ChainPose, LimbChain, RootTransform};
-use crate::limits::{JointLimit, clamp_hinge_half, half_sin_cos, hinge_half, hinge_quat};
+use crate::limits::{
+    HalfRange, JointLimit, clamp_ball, clamp_hinge_half, half_sin_cos, half_sin_cos4, hinge_half,
+    hinge_quat,
+};
 use crate::refine;
 
 /// Joint visiting order inside one CCD sweep.
@@ -163,42 +166,64 @@ impl CcdResult {
 struct Frames {
     /// Joint positions 0..3 and effector (4).
     pos: [Vec3A; 5],
-    /// Joint rotations (root-relative), pose included: `base[i] * pose[i]`.
+    /// Joint rotations (root-relative), pose included: `rot[i-1] * rest[i] * pose[i]`.
     rot: [Quat; CHAIN_JOINTS],
-    /// Joint rest frames (root-relative), pose excluded: `rot[i-1] * rest[i]`.
-    base: [Quat; CHAIN_JOINTS],
 }
 
 impl Frames {
     #[inline]
     fn new(chain: &LimbChain, pose: &ChainPose) -> Self {
-        let mut f = Frames {
-            pos: [Vec3A::ZERO; 5],
-            rot: [Quat::IDENTITY; CHAIN_JOINTS],
-            base: [Quat::IDENTITY; CHAIN_JOINTS],
-        };
-        f.pos[0] = chain.offsets[0];
-        f.update_from(chain, pose, 0);
-        f
+        // The `rest · pose` products do not depend on each other; forming them first
+        // leaves 3 quaternion products on the dependency chain instead of 8 (the FK
+        // is latency-bound, so this is most of its cost).
+        let local: [Quat; CHAIN_JOINTS] = std::array::from_fn(|i| chain.rest[i] * pose.0[i]);
+        let mut rot = local;
+        let mut pos = [chain.offsets[0]; 5];
+        for i in 1..CHAIN_JOINTS {
+            rot[i] = rot[i - 1] * local[i];
+            pos[i] = pos[i - 1] + rot[i - 1] * chain.offsets[i];
+        }
+        pos[4] = pos[3] + rot[3] * chain.effector;
+        Frames { pos, rot }
+    }
+
+    /// Joint `j`'s rest frame (root-relative, pose excluded): `rot[j-1] * rest[j]`.
+    #[inline]
+    fn base(&self, chain: &LimbChain, j: usize) -> Quat {
+        if j == 0 {
+            chain.rest[0]
+        } else {
+            self.rot[j - 1] * chain.rest[j]
+        }
+    }
+
+    /// Direction `v` of joint `j`'s posed frame in the chain-root frame. Rotating by a
+    /// quaternion scales by its squared norm, and warm-start poses drift off unit norm
+    /// by ~1e-5 over many frames (products are never renormalised): the step formulas
+    /// need unit axes, so the scale is divided out (off the critical path: it depends
+    /// only on the FK).
+    #[inline]
+    fn dir_to_root(&self, j: usize, v: Vec3A) -> Vec3A {
+        (self.rot[j] * v) * self.rot[j].length_squared().recip()
+    }
+
+    /// Direction `v` of the chain-root frame in joint `j`'s posed frame (see
+    /// [`Frames::dir_to_root`]).
+    #[inline]
+    fn dir_to_joint(&self, j: usize, v: Vec3A) -> Vec3A {
+        (self.rot[j].inverse() * v) * self.rot[j].length_squared().recip()
     }
 
     /// Recompute joint `j`'s rotation and everything below it after `pose[j]` changed.
     #[inline]
     fn update_from(&mut self, chain: &LimbChain, pose: &ChainPose, j: usize) {
-        let mut parent_rot = if j == 0 {
-            Quat::IDENTITY
-        } else {
-            self.rot[j - 1]
-        };
         for i in j..CHAIN_JOINTS {
             if i > j {
-                self.pos[i] = self.pos[i - 1] + parent_rot * chain.offsets[i];
+                self.pos[i] = self.pos[i - 1] + self.rot[i - 1] * chain.offsets[i];
             }
-            self.base[i] = parent_rot * chain.rest[i];
-            self.rot[i] = self.base[i] * pose.0[i];
-            parent_rot = self.rot[i];
+            self.rot[i] = self.base(chain, i) * pose.0[i];
         }
-        self.pos[4] = self.pos[3] + parent_rot * chain.effector;
+        self.pos[4] = self.pos[3] + self.rot[3] * chain.effector;
     }
 }
 
@@ -315,6 +340,8 @@ fn smooth_retry(
 /// Tail-first sweeps update only the effector after each step: a step on joint `j`
 /// moves nothing above it, and the next step (joint `j-1`) needs only joint `j-1`'s own
 /// frame, joint 1's position and the effector. The full FK is redone once per sweep.
+/// Steps work in the chain-root frame (dot and cross products do not care which frame
+/// they are taken in), so a step moves at most one vector into the joint's frame.
 #[inline]
 fn ccd_sweeps(
     chain: &LimbChain,
@@ -336,6 +363,7 @@ fn ccd_sweeps(
         return (r, start_err);
     }
     let cap = StepCap::new(params.max_step_angle);
+    let limits = prepare_limits(&chain.limits);
     let tail_first = params.order == CcdOrder::TailFirst;
     let mut prev_err = start_err;
     let mut reach_step = params.reach_step;
@@ -349,8 +377,9 @@ fn ccd_sweeps(
         let sweep_start = *pose;
         for k in 0..CHAIN_JOINTS {
             let j = if tail_first { CHAIN_JOINTS - 1 - k } else { k };
-            let Some((q, eff_ls)) = step_joint(
+            let Some(step) = step_joint(
                 chain,
+                &limits[j],
                 &frames,
                 pose.0[j],
                 j,
@@ -361,9 +390,9 @@ fn ccd_sweeps(
             ) else {
                 continue;
             };
-            pose.0[j] = q;
+            pose.0[j] = step.q;
             if tail_first {
-                frames.pos[4] = frames.pos[j] + (frames.base[j] * q) * eff_ls;
+                frames.pos[4] = step.effector;
                 frames_stale = true;
             } else {
                 frames.update_from(chain, pose, j);
@@ -483,13 +512,96 @@ impl StepCap {
     }
 }
 
+/// A joint limit with its half-angle trigonometry already evaluated, so that steps
+/// compare and clamp without polynomials (they used to evaluate ~12 per sweep).
+#[derive(Clone, Copy)]
+enum Limit {
+    Free,
+    Hinge {
+        axis: Vec3A,
+        range: HalfRange,
+    },
+    Ball {
+        twist_axis: Vec3A,
+        /// `(cos, sin)` of half the largest swing.
+        swing: (f32, f32),
+        twist: HalfRange,
+    },
+}
+
+impl Limit {
+    /// Clamp a ball (or free) joint rotation; also says whether it changed.
+    #[inline]
+    fn clamp_ball(&self, q: Quat) -> (Quat, bool) {
+        match *self {
+            Limit::Ball {
+                twist_axis,
+                swing,
+                twist,
+            } => clamp_ball(q, twist_axis, swing, &twist),
+            Limit::Free | Limit::Hinge { .. } => (q, false),
+        }
+    }
+}
+
+/// The chain's limits with their half-angle sin/cos: the up to 12 limit angles go
+/// through [`half_sin_cos4`] four at a time (3 SIMD evaluations per solve). The chain's
+/// limits are public fields, so this is redone per solve rather than cached in it.
+#[inline]
+fn prepare_limits(limits: &[JointLimit; CHAIN_JOINTS]) -> [Limit; CHAIN_JOINTS] {
+    // Three lanes per joint: hinge (min, max, -), ball (twist_min, twist_max, swing_max).
+    let mut angles = [0.0f32; 3 * CHAIN_JOINTS];
+    for (j, limit) in limits.iter().enumerate() {
+        angles[3 * j..3 * j + 3].copy_from_slice(&match *limit {
+            JointLimit::Free => [0.0; 3],
+            JointLimit::Hinge { min, max, .. } => [min, max, 0.0],
+            JointLimit::Ball {
+                swing_max,
+                twist_min,
+                twist_max,
+                ..
+            } => [twist_min, twist_max, swing_max],
+        });
+    }
+    let mut sin = [0.0f32; 3 * CHAIN_JOINTS];
+    let mut cos = [0.0f32; 3 * CHAIN_JOINTS];
+    for k in 0..3 {
+        let (s, c) = half_sin_cos4(Vec4::from_slice(&angles[4 * k..]));
+        s.write_to_slice(&mut sin[4 * k..]);
+        c.write_to_slice(&mut cos[4 * k..]);
+    }
+    std::array::from_fn(|j| {
+        let half = |i: usize| (cos[3 * j + i], sin[3 * j + i]);
+        let range = HalfRange {
+            lo: half(0),
+            hi: half(1),
+        };
+        match limits[j] {
+            JointLimit::Free => Limit::Free,
+            JointLimit::Hinge { axis, .. } => Limit::Hinge { axis, range },
+            JointLimit::Ball { twist_axis, .. } => Limit::Ball {
+                twist_axis,
+                swing: half(2),
+                twist: range,
+            },
+        }
+    })
+}
+
+/// Result of one joint step: the joint's new pose rotation and the new effector
+/// position (chain-root frame).
+struct Step {
+    q: Quat,
+    effector: Vec3A,
+}
+
 /// One CCD step on joint `j` from the current `frames` (joint `j`'s frame, joint 1 and
-/// the effector must be up to date). Returns the new pose rotation of joint `j` and the
-/// effector in joint `j`'s (old) posed frame, or `None` when nothing changes.
+/// the effector must be up to date). `None` when nothing changes.
 #[allow(clippy::too_many_arguments)]
 #[inline]
 fn step_joint(
     chain: &LimbChain,
+    limit: &Limit,
     frames: &Frames,
     q: Quat,
     j: usize,
@@ -497,74 +609,162 @@ fn step_joint(
     cap: &StepCap,
     reach_step: bool,
     mid_saturated: &mut bool,
-) -> Option<(Quat, Vec3A)> {
+) -> Option<Step> {
     let joint_pos = frames.pos[j];
-    let inv_rot = frames.rot[j].inverse();
-    // Effector and target in joint j's own (posed) frame.
-    let eff_ls = inv_rot * (frames.pos[4] - joint_pos);
-    let limit = chain.limits[j];
-    if reach_step && j == 0 && *mid_saturated && matches!(limit, JointLimit::Ball { .. }) {
-        // Girdle reach: move the proximal joint (on its sphere about the girdle) to a
-        // point as far from the target as the effector is from it now.
-        let b_ls = inv_rot * (frames.pos[1] - joint_pos);
-        let d_ls = inv_rot * (target - joint_pos);
-        let s = (frames.pos[4] - frames.pos[1]).length();
-        let delta = ball_reach_step(b_ls, d_ls, s, cap)?;
-        return Some((limit.clamp(q * delta), eff_ls));
-    }
-    if reach_step
-        && j == 2
-        && let JointLimit::Hinge { axis, min, max } = limit
-    {
-        let ref_ls = inv_rot * (frames.pos[1] - joint_pos);
-        let want = (target - frames.pos[1]).length();
-        let (step, saturated) = reach_hinge_step(q, axis, min, max, eff_ls, ref_ls, want, cap);
-        *mid_saturated = saturated;
-        return step.map(|q| (q, eff_ls));
-    }
-    let target_ls = inv_rot * (target - joint_pos);
-    let new_q = match limit {
-        JointLimit::Hinge { axis, min, max } => {
-            hinge_step(q, axis, min, max, eff_ls, target_ls, cap)?
+    // Effector and target relative to joint j, in the chain-root frame.
+    let e = frames.pos[4] - joint_pos;
+    match *limit {
+        Limit::Ball { .. } if reach_step && j == 0 && *mid_saturated => {
+            // Girdle reach: move the proximal joint (on its sphere about the girdle) to a
+            // point as far from the target as the effector is from it now.
+            let b = frames.pos[1] - joint_pos;
+            let d = target - joint_pos;
+            let s = (frames.pos[4] - frames.pos[1]).length();
+            let (axis, half) = ball_reach_step(b, d, s, cap)?;
+            Some(turn_ball(chain, limit, frames, q, j, e, axis, half))
         }
-        limit => limit.clamp(q * arc_step(eff_ls, target_ls, cap)?),
+        Limit::Hinge { axis, range } if reach_step && j == 2 => {
+            let hinge = Hinge::new(frames, q, j, axis);
+            let r = frames.pos[1] - joint_pos;
+            let want = (target - frames.pos[1]).length();
+            let (new, saturated) = reach_hinge_step(&hinge, &range, e, r, want, cap);
+            *mid_saturated = saturated;
+            new.map(|new| hinge.turn(chain, frames, j, e, new))
+        }
+        Limit::Hinge { axis, range } => {
+            let hinge = Hinge::new(frames, q, j, axis);
+            let new = hinge_step(&hinge, &range, e, target - joint_pos, cap)?;
+            Some(hinge.turn(chain, frames, j, e, new))
+        }
+        Limit::Ball { .. } | Limit::Free => {
+            let (axis, half) = arc_step(e, target - joint_pos, cap)?;
+            Some(turn_ball(chain, limit, frames, q, j, e, axis, half))
+        }
+    }
+}
+
+/// `v` rotated about the unit `axis` by the angle δ with half-angle `(cos, sin)`
+/// (Rodrigues: `v + sin δ (a × v) + (1 − cos δ)(a (a·v) − v)`): cheaper than building
+/// the joint's new frame and rotating by it.
+#[inline]
+fn rotate_half(v: Vec3A, axis: Vec3A, (c, s): (f32, f32)) -> Vec3A {
+    v + axis.cross(v) * (2.0 * c * s) + (axis * axis.dot(v) - v) * (2.0 * s * s)
+}
+
+/// Apply a ball (or free) joint step given in the chain-root frame (unit `axis`,
+/// half-angle `half`): the pose gets the same rotation expressed in joint `j`'s frame,
+/// then the clamp. `e` is the effector relative to the joint.
+#[allow(clippy::too_many_arguments)]
+#[inline]
+fn turn_ball(
+    chain: &LimbChain,
+    limit: &Limit,
+    frames: &Frames,
+    q: Quat,
+    j: usize,
+    e: Vec3A,
+    axis: Vec3A,
+    half: (f32, f32),
+) -> Step {
+    let v = frames.dir_to_joint(j, axis) * half.1;
+    let (q, clamped) = limit.clamp_ball(q * Quat::from_xyzw(v.x, v.y, v.z, half.0));
+    let e = if clamped {
+        // The clamp changed the rotation: rebuild the joint's frame.
+        (frames.base(chain, j) * q) * (frames.rot[j].inverse() * e)
+    } else {
+        // Unclamped, the joint turned exactly by the step.
+        rotate_half(e, axis, half)
     };
-    Some((new_q, eff_ls))
+    Step {
+        q,
+        effector: frames.pos[j] + e,
+    }
+}
+
+/// A hinge joint about to step: its axis in the chain-root frame and its current
+/// half-angle.
+struct Hinge {
+    /// Unit axis in the joint's rest frame (= posed frame for a pure hinge rotation).
+    axis: Vec3A,
+    /// The same axis in the chain-root frame.
+    axis_rs: Vec3A,
+    /// Current half-angle `(cos θ/2 ≥ 0, sin θ/2)` (off-axis part dropped).
+    current: (f32, f32),
+    /// The current rotation has no off-axis part (every pose this solver writes).
+    pure: bool,
+}
+
+impl Hinge {
+    #[inline]
+    fn new(frames: &Frames, q: Quat, j: usize, axis: Vec3A) -> Self {
+        let v = Vec3A::new(q.x, q.y, q.z);
+        Hinge {
+            axis,
+            axis_rs: frames.dir_to_root(j, axis),
+            current: hinge_half(q, axis),
+            pure: (v - axis * v.dot(axis)).length_squared() <= 1e-12,
+        }
+    }
+
+    /// Set the hinge to half-angle `new`; `e` is the effector relative to the joint.
+    #[inline]
+    fn turn(
+        &self,
+        chain: &LimbChain,
+        frames: &Frames,
+        j: usize,
+        e: Vec3A,
+        new: (f32, f32),
+    ) -> Step {
+        let q = hinge_quat(self.axis, new.0, new.1);
+        let e = if self.pure {
+            // The joint turns about its axis by new · conj(current).
+            let (w, p) = self.current;
+            let delta = (new.0 * w + new.1 * p, new.1 * w - new.0 * p);
+            rotate_half(e, self.axis_rs, delta)
+        } else {
+            // A warm start with an off-axis part (not one this solver wrote): the new
+            // rotation drops it, so rebuild the joint's frame.
+            (frames.base(chain, j) * q) * (frames.rot[j].inverse() * e)
+        };
+        Step {
+            q,
+            effector: frames.pos[j] + e,
+        }
+    }
 }
 
 /// Rotate the hinge half-angle `(w, p)` by a delta half-angle `(c, s)`, clamp into the
-/// limits; `None` if the result equals the current angle (pinned at a limit).
+/// limits. Returns the new half-angle, `None` if it equals the current one (pinned at a
+/// limit), and whether the clamp acted.
 #[inline]
 fn turn_hinge(
-    axis: Vec3A,
     (w, p): (f32, f32),
     (c, s): (f32, f32),
-    min: f32,
-    max: f32,
-) -> (Option<Quat>, bool) {
+    range: &HalfRange,
+) -> (Option<(f32, f32)>, bool) {
     let (w1, p1) = (w * c - p * s, w * s + p * c);
-    let (w2, p2, clamped) = clamp_hinge_half(w1, p1, min, max);
+    let (w2, p2, clamped) = clamp_hinge_half(w1, p1, range);
     if (w2 - w).abs() <= 1e-9 && (p2 - p).abs() <= 1e-9 {
         return (None, clamped);
     }
-    (Some(hinge_quat(axis, w2, p2)), clamped)
+    (Some((w2, p2)), clamped)
 }
 
-/// Hinge step: the best rotation about `axis` (which is the same vector in the posed
-/// and rest frames) bringing `eff_ls` toward `target_ls`, capped and clamped. Works on
-/// half-angle unit complex numbers: no trig.
+/// Hinge step: the best rotation about the hinge axis bringing `eff` toward `target`
+/// (both relative to the joint), capped and clamped. Works on half-angle unit complex
+/// numbers: no trig. Returns the new half-angle.
 #[inline]
 fn hinge_step(
-    q: Quat,
-    axis: Vec3A,
-    min: f32,
-    max: f32,
-    eff_ls: Vec3A,
-    target_ls: Vec3A,
+    hinge: &Hinge,
+    range: &HalfRange,
+    eff: Vec3A,
+    target: Vec3A,
     cap: &StepCap,
-) -> Option<Quat> {
-    let e = eff_ls - axis * axis.dot(eff_ls);
-    let t = target_ls - axis * axis.dot(target_ls);
+) -> Option<(f32, f32)> {
+    let axis = hinge.axis_rs;
+    let e = eff - axis * axis.dot(eff);
+    let t = target - axis * axis.dot(target);
     let ee = e.length_squared();
     let tt = t.length_squared();
     if ee < 1e-14 || tt < 1e-14 {
@@ -574,12 +774,13 @@ fn hinge_step(
     let cos = (e.dot(t) * inv).clamp(-1.0, 1.0);
     let sin = axis.dot(e.cross(t)) * inv;
     let half = cap.capped_half(cos, sin);
-    turn_hinge(axis, hinge_half(q, axis), half, min, max).0
+    turn_hinge(hinge.current, half, range).0
 }
 
-/// Shortest-arc rotation taking direction `from` toward `to`, capped at the step angle.
+/// Shortest-arc rotation taking direction `from` toward `to`, capped at the step angle:
+/// its unit axis and half-angle `(cos, sin)`.
 #[inline]
-fn arc_step(from: Vec3A, to: Vec3A, cap: &StepCap) -> Option<Quat> {
+fn arc_step(from: Vec3A, to: Vec3A, cap: &StepCap) -> Option<(Vec3A, (f32, f32))> {
     let ff = from.length_squared();
     let tt = to.length_squared();
     if ff < 1e-14 || tt < 1e-14 {
@@ -593,57 +794,52 @@ fn arc_step(from: Vec3A, to: Vec3A, cap: &StepCap) -> Option<Quat> {
         // Parallel: nothing to do. Anti-parallel: ambiguous axis; let other joints move.
         return None;
     }
-    let axis = axis * sin_len.sqrt().recip();
     // Half-angle formulas: no trig.
-    let (c, s) = cap.capped_half(cos, 1.0);
-    let v = axis * s;
-    Some(Quat::from_xyzw(v.x, v.y, v.z, c))
+    Some((axis * sin_len.sqrt().recip(), cap.capped_half(cos, 1.0)))
 }
 
-/// Reach step for a hinge: the angle change about `axis` that makes the effector's
-/// distance to the reference point `ref_ls` (the proximal joint) equal `want`, nearest
-/// to the current angle, capped and clamped. Returns the new rotation (if it changes)
-/// and whether the wanted distance could not be set (out of range or limit hit).
-#[allow(clippy::too_many_arguments)]
+/// Reach step for a hinge: the angle change that makes the effector's distance to the
+/// reference point `r` (the proximal joint; both relative to the hinge joint) equal
+/// `want`, nearest to the current angle, capped and clamped. Returns the new half-angle
+/// (if it changes) and whether the wanted distance could not be set (out of range or
+/// limit hit).
 #[inline]
 fn reach_hinge_step(
-    q: Quat,
-    axis: Vec3A,
-    min: f32,
-    max: f32,
-    eff_ls: Vec3A,
-    ref_ls: Vec3A,
+    hinge: &Hinge,
+    range: &HalfRange,
+    eff: Vec3A,
+    r: Vec3A,
     want: f32,
     cap: &StepCap,
-) -> (Option<Quat>, bool) {
+) -> (Option<(f32, f32)>, bool) {
+    let axis = hinge.axis_rs;
     // |e(φ) − r|² = |e|² + |r|² − 2 (e_a·r_a + |e⊥||r⊥| cos(φ − φ0)), φ = rotation of e⊥.
-    let ea = axis.dot(eff_ls);
-    let ra = axis.dot(ref_ls);
-    let e = eff_ls - axis * ea;
-    let r = ref_ls - axis * ra;
+    let ea = axis.dot(eff);
+    let ra = axis.dot(r);
+    let e = eff - axis * ea;
+    let r_perp = r - axis * ra;
     let ee = e.length_squared();
-    let rr = r.length_squared();
+    let rr = r_perp.length_squared();
     if ee < 1e-14 || rr < 1e-14 {
         return (None, false);
     }
     let elrl = (ee * rr).sqrt();
-    let k = eff_ls.length_squared() + ref_ls.length_squared() - 2.0 * ea * ra;
+    let k = eff.length_squared() + r.length_squared() - 2.0 * ea * ra;
     // want² = k − 2 el rl cos(ψ), ψ = angle from e⊥ to r⊥ after rotating e by δ
     let cos_raw = (k - want * want) / (2.0 * elrl);
     let cos_psi = cos_raw.clamp(-1.0, 1.0);
     let sin_psi = (1.0 - cos_psi * cos_psi).max(0.0).sqrt();
     // current signed angle `cur` from e⊥ to r⊥ about axis, as (cos, sin)
     let inv = elrl.recip();
-    let (cc, sc) = (e.dot(r) * inv, axis.dot(e.cross(r)) * inv);
+    let (cc, sc) = (e.dot(r_perp) * inv, axis.dot(e.cross(r_perp)) * inv);
     // rotating e by δ changes the angle to r by −δ: need cur − δ = ±ψ, δ = cur ∓ ψ
     // (complex products give δ wrapped into (−π, π]).
     let d1 = (cc * cos_psi + sc * sin_psi, sc * cos_psi - cc * sin_psi);
     let d2 = (cc * cos_psi - sc * sin_psi, sc * cos_psi + cc * sin_psi);
-    let current = hinge_half(q, axis);
+    let current = hinge.current;
     // Of the two hinge angles giving that distance, prefer one inside the limits (or the
     // less outside, measured on sin θ/2), then the smaller change (larger cos δ).
-    let (s_min, _) = half_sin_cos(min);
-    let (s_max, _) = half_sin_cos(max);
+    let (s_min, s_max) = (range.lo.1, range.hi.1);
     let score = |(c, s): (f32, f32)| {
         let (hc, hs) = (
             (0.5 * (1.0 + c)).max(0.0).sqrt(),
@@ -661,36 +857,35 @@ fn reach_hinge_step(
         (outside, -c)
     };
     let (cos_d, sin_d) = if score(d1) <= score(d2) { d1 } else { d2 };
-    let (step, clamped) = turn_hinge(axis, current, cap.capped_half(cos_d, sin_d), min, max);
+    let (step, clamped) = turn_hinge(current, cap.capped_half(cos_d, sin_d), range);
     (step, cos_raw.abs() > 1.0 || clamped)
 }
 
-/// Reach step for the girdle ball joint: the smallest rotation of `b_ls` (proximal joint
-/// relative to the girdle) that puts its end at distance `s` from `d_ls` (the target),
-/// capped. `None` when nothing needs to (or can) change.
+/// Reach step for the girdle ball joint: the smallest rotation of `b` (proximal joint
+/// relative to the girdle) that puts its end at distance `s` from `d` (the target),
+/// capped: its unit axis and half-angle. `None` when nothing needs to (or can) change.
 #[inline]
-fn ball_reach_step(b_ls: Vec3A, d_ls: Vec3A, s: f32, cap: &StepCap) -> Option<Quat> {
-    let ll = b_ls.length_squared();
-    let dd = d_ls.length_squared();
+fn ball_reach_step(b: Vec3A, d: Vec3A, s: f32, cap: &StepCap) -> Option<(Vec3A, (f32, f32))> {
+    let ll = b.length_squared();
+    let dd = d.length_squared();
     if ll < 1e-14 || dd < 1e-14 {
         return None;
     }
     let ld = (ll * dd).sqrt();
     let cos_want = ((ll + dd - s * s) / (2.0 * ld)).clamp(-1.0, 1.0);
     let sin_want = (1.0 - cos_want * cos_want).max(0.0).sqrt();
-    let axis = b_ls.cross(d_ls);
+    let axis = b.cross(d);
     let axis_len = axis.length();
     if axis_len < 1e-9 {
         return None;
     }
     // now = angle(b, d) ∈ [0, π]; δ = now − want
-    let (cos_now, sin_now) = (b_ls.dot(d_ls) / ld, axis_len / ld);
+    let (cos_now, sin_now) = (b.dot(d) / ld, axis_len / ld);
     let cos_d = (cos_now * cos_want + sin_now * sin_want).clamp(-1.0, 1.0);
     let sin_d = sin_now * cos_want - cos_now * sin_want;
     if sin_d.abs() < 1e-7 && cos_d > 0.0 {
         return None;
     }
-    let (c, s) = cap.capped_half(cos_d, sin_d);
-    let v = axis * (s / axis_len);
-    Some(Quat::from_xyzw(v.x, v.y, v.z, c))
+    // A negative sin δ turns about −axis: keep the axis, let the half-angle carry the sign.
+    Some((axis / axis_len, cap.capped_half(cos_d, sin_d)))
 }

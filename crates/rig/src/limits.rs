@@ -10,7 +10,9 @@
 //!   (rotation about an axis perpendicular to the bone) at most `swing_max`.
 //! * `JointLimit::Free`: unconstrained.
 
-use glam::{Quat, Vec3A};
+use std::ops::{Add, Mul};
+
+use glam::{Quat, Vec3A, Vec4};
 use serde::{Deserialize, Serialize};
 
 /// Per-joint rotation limit in the joint's rest frame. Radians.
@@ -133,7 +135,7 @@ impl JointLimit {
             JointLimit::Free => q,
             JointLimit::Hinge { axis, min, max } => {
                 let (w, p) = hinge_half(q, axis);
-                let (w, p, _) = clamp_hinge_half(w, p, min, max);
+                let (w, p, _) = clamp_hinge_half(w, p, &HalfRange::new(min, max));
                 hinge_quat(axis, w, p)
             }
             JointLimit::Ball {
@@ -141,7 +143,11 @@ impl JointLimit {
                 swing_max,
                 twist_min,
                 twist_max,
-            } => clamp_ball(q, twist_axis, swing_max, twist_min, twist_max),
+            } => {
+                let (sin, cos) = half_sin_cos(swing_max);
+                let twist = HalfRange::new(twist_min, twist_max);
+                clamp_ball(q, twist_axis, (cos, sin), &twist).0
+            }
         }
     }
 
@@ -243,20 +249,63 @@ pub(crate) fn swing_twist_angles(q: Quat, axis: Vec3A) -> (f32, f32) {
 /// on `|x| ≤ π/2`: absolute error < 1e-7), inlined: no libm call in the solver.
 #[inline]
 pub(crate) fn half_sin_cos(angle: f32) -> (f32, f32) {
-    let x = 0.5 * angle;
+    half_sin_cos_poly(angle)
+}
+
+/// [`half_sin_cos`] of four angles at once (one SIMD lane each, same bits as the scalar
+/// version): the solver evaluates all of a chain's limit angles in three calls.
+#[inline]
+pub(crate) fn half_sin_cos4(angles: Vec4) -> (Vec4, Vec4) {
+    half_sin_cos_poly(angles)
+}
+
+/// The polynomial behind [`half_sin_cos`], for `f32` or `Vec4` (Horner; IEEE `+`/`*`
+/// commute, so both give the same bits per lane).
+#[inline(always)]
+fn half_sin_cos_poly<T>(angle: T) -> (T, T)
+where
+    T: Copy + Mul<T, Output = T> + Mul<f32, Output = T> + Add<f32, Output = T>,
+{
+    let x = angle * 0.5;
     let x2 = x * x;
     let s = x
-        * (1.0
-            + x2 * (-1.0 / 6.0
-                + x2 * (1.0 / 120.0
-                    + x2 * (-1.0 / 5040.0 + x2 * (1.0 / 362_880.0 + x2 * (-1.0 / 39_916_800.0))))));
-    let c = 1.0
-        + x2 * (-0.5
-            + x2 * (1.0 / 24.0
-                + x2 * (-1.0 / 720.0
-                    + x2 * (1.0 / 40_320.0
-                        + x2 * (-1.0 / 3_628_800.0 + x2 * (1.0 / 479_001_600.0))))));
+        * (((((x2 * (-1.0 / 39_916_800.0) + 1.0 / 362_880.0) * x2 + -1.0 / 5040.0) * x2
+            + 1.0 / 120.0)
+            * x2
+            + -1.0 / 6.0)
+            * x2
+            + 1.0);
+    let c = (((((x2 * (1.0 / 479_001_600.0) + -1.0 / 3_628_800.0) * x2 + 1.0 / 40_320.0) * x2
+        + -1.0 / 720.0)
+        * x2
+        + 1.0 / 24.0)
+        * x2
+        + -0.5)
+        * x2
+        + 1.0;
     (s, c)
+}
+
+/// Half-angles of an angle range `[min, max]` as unit complex numbers `(cos, sin)` of
+/// `min/2` and `max/2`: what [`clamp_hinge_half`] compares and clamps with.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct HalfRange {
+    /// `(cos min/2, sin min/2)`.
+    pub lo: (f32, f32),
+    /// `(cos max/2, sin max/2)`.
+    pub hi: (f32, f32),
+}
+
+impl HalfRange {
+    #[inline]
+    pub(crate) fn new(min: f32, max: f32) -> Self {
+        let (s_min, c_min) = half_sin_cos(min);
+        let (s_max, c_max) = half_sin_cos(max);
+        Self {
+            lo: (c_min, s_min),
+            hi: (c_max, s_max),
+        }
+    }
 }
 
 /// Hinge half-angle of `q` about the unit `axis` as a unit complex number
@@ -274,14 +323,13 @@ pub(crate) fn hinge_half(q: Quat, axis: Vec3A) -> (f32, f32) {
     (w * inv, p * inv)
 }
 
-/// Clamp a hinge half-angle `(cos θ/2, sin θ/2)` into `θ ∈ [min, max]` without angles:
-/// with `cos θ/2 ≥ 0`, `sin θ/2` grows monotonically with θ. `cos θ/2 < 0` means
-/// `|θ| > π` (an unwrapped sum of angles), which is beyond either limit on its sign's
-/// side. Returns the clamped pair and whether it changed.
+/// Clamp a hinge half-angle `(cos θ/2, sin θ/2)` into the range without angles: with
+/// `cos θ/2 ≥ 0`, `sin θ/2` grows monotonically with θ. `cos θ/2 < 0` means `|θ| > π`
+/// (an unwrapped sum of angles), which is beyond either limit on its sign's side.
+/// Returns the clamped pair and whether it changed.
 #[inline]
-pub(crate) fn clamp_hinge_half(w: f32, p: f32, min: f32, max: f32) -> (f32, f32, bool) {
-    let (s_max, c_max) = half_sin_cos(max);
-    let (s_min, c_min) = half_sin_cos(min);
+pub(crate) fn clamp_hinge_half(w: f32, p: f32, range: &HalfRange) -> (f32, f32, bool) {
+    let ((c_min, s_min), (c_max, s_max)) = (range.lo, range.hi);
     if w < 0.0 {
         return if p >= 0.0 {
             (c_max, s_max, true)
@@ -305,19 +353,25 @@ pub(crate) fn hinge_quat(axis: Vec3A, w: f32, p: f32) -> Quat {
     Quat::from_xyzw(v.x, v.y, v.z, w)
 }
 
-/// Swing–twist clamp with no trigonometry (limit half-angles by [`half_sin_cos`]):
-/// `q` is returned bit-identical when it is inside the limit.
+/// Swing–twist clamp with no trigonometry: `swing_half` is `(cos, sin)` of half the
+/// largest swing, `twist` the twist range's half-angles. Returns the clamped rotation
+/// and whether it changed: `q` comes back bit-identical when it is inside the limit.
 #[inline]
-fn clamp_ball(q: Quat, axis: Vec3A, swing_max: f32, twist_min: f32, twist_max: f32) -> Quat {
+pub(crate) fn clamp_ball(
+    q: Quat,
+    axis: Vec3A,
+    swing_half: (f32, f32),
+    twist: &HalfRange,
+) -> (Quat, bool) {
+    let (cos_half_swing, sin_half_swing) = swing_half;
     let q = canonical(q);
     let v = Vec3A::new(q.x, q.y, q.z);
     let p = v.dot(axis);
     let twist_len_sq = p * p + q.w * q.w;
-    let (sin_half_swing, cos_half_swing) = half_sin_cos(swing_max);
     if twist_len_sq < 1e-18 {
         // Pure 180° swing: the twist is undefined; keep a zero twist and the limited swing.
         let sv = v.normalize_or_zero() * sin_half_swing;
-        return Quat::from_xyzw(sv.x, sv.y, sv.z, cos_half_swing);
+        return (Quat::from_xyzw(sv.x, sv.y, sv.z, cos_half_swing), true);
     }
     let len = twist_len_sq.sqrt();
     let inv_len = len.recip();
@@ -325,16 +379,16 @@ fn clamp_ball(q: Quat, axis: Vec3A, swing_max: f32, twist_min: f32, twist_max: f
     // sine p/len grows with the twist angle); swing = q * conj(twist) has scalar part len.
     let (tw, tp) = (q.w * inv_len, p * inv_len);
     let swing_over = len < cos_half_swing;
-    let (tw_c, tp_c, twist_over) = clamp_hinge_half(tw, tp, twist_min, twist_max);
+    let (tw_c, tp_c, twist_over) = clamp_hinge_half(tw, tp, twist);
     if !swing_over && !twist_over {
-        return q;
+        return (q, false);
     }
     let mut swing = q * hinge_quat(axis, tw, -tp);
     if swing_over {
         let sv = Vec3A::new(swing.x, swing.y, swing.z).normalize_or_zero() * sin_half_swing;
         swing = Quat::from_xyzw(sv.x, sv.y, sv.z, cos_half_swing);
     }
-    swing * hinge_quat(axis, tw_c, tp_c)
+    (swing * hinge_quat(axis, tw_c, tp_c), true)
 }
 
 #[cfg(test)]
