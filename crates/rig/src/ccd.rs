@@ -171,7 +171,7 @@ struct Frames {
 }
 
 impl Frames {
-    #[inline]
+    #[inline(always)]
     fn new(chain: &LimbChain, pose: &ChainPose) -> Self {
         // The `rest · pose` products do not depend on each other; forming them first
         // leaves 3 quaternion products on the dependency chain instead of 8 (the FK
@@ -188,7 +188,7 @@ impl Frames {
     }
 
     /// Joint `j`'s rest frame (root-relative, pose excluded): `rot[j-1] * rest[j]`.
-    #[inline]
+    #[inline(always)]
     fn base(&self, chain: &LimbChain, j: usize) -> Quat {
         if j == 0 {
             chain.rest[0]
@@ -202,14 +202,14 @@ impl Frames {
     /// by ~1e-5 over many frames (products are never renormalised): the step formulas
     /// need unit axes, so the scale is divided out (off the critical path: it depends
     /// only on the FK).
-    #[inline]
+    #[inline(always)]
     fn dir_to_root(&self, j: usize, v: Vec3A) -> Vec3A {
         (self.rot[j] * v) * self.rot[j].length_squared().recip()
     }
 
     /// Direction `v` of the chain-root frame in joint `j`'s posed frame (see
     /// [`Frames::dir_to_root`]).
-    #[inline]
+    #[inline(always)]
     fn dir_to_joint(&self, j: usize, v: Vec3A) -> Vec3A {
         (self.rot[j].inverse() * v) * self.rot[j].length_squared().recip()
     }
@@ -251,6 +251,28 @@ pub fn solve(
         *pose = ChainPose::NEUTRAL;
     }
     let target = root.inverse_transform_point(target_ws.into());
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        // SAFETY: the CPU has AVX2 (checked just above).
+        return unsafe { solve_local_avx2(chain, target, pose, params) };
+    }
+    solve_local(chain, target, pose, params)
+}
+
+/// [`solve_local`] compiled with AVX2 enabled, picked at run time (`std` caches the CPU
+/// check). The solver is short vector code on `glam`'s SSE2 types; with the default
+/// x86-64 target those are 2-operand instructions, and about a fifth of the solve was
+/// register copies. The VEX (3-operand) encoding drops most of them. Same IEEE
+/// operations in the same order (Rust never fuses a multiply and an add), so both
+/// builds give bit-identical poses.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn solve_local_avx2(
+    chain: &LimbChain,
+    target: Vec3A,
+    pose: &mut ChainPose,
+    params: &CcdParams,
+) -> CcdResult {
     solve_local(chain, target, pose, params)
 }
 
@@ -263,7 +285,7 @@ pub fn solve(
 /// by more than [`SMOOTH_JOINT_STEP`], the solve is redone from the warm start by the
 /// damped least squares of [`refine`], whose minimum-norm steps spread the move over all
 /// joints; its pose is kept if it reaches and moves the joints less.
-#[inline]
+#[inline(always)]
 fn solve_local(
     chain: &LimbChain,
     target: Vec3A,
@@ -290,7 +312,7 @@ pub const SMOOTH_JOINT_STEP: f32 = 0.1;
 const SMOOTH_COS_HALF: f32 = 0.998_750_26;
 
 /// Smallest `|a_i · b_i|` over the joints: the cosine of half the largest joint change.
-#[inline]
+#[inline(always)]
 fn max_joint_cos_half(a: &ChainPose, b: &ChainPose) -> f32 {
     (0..CHAIN_JOINTS)
         .map(|i| a.0[i].dot(b.0[i]).abs())
@@ -342,7 +364,7 @@ fn smooth_retry(
 /// frame, joint 1's position and the effector. The full FK is redone once per sweep.
 /// Steps work in the chain-root frame (dot and cross products do not care which frame
 /// they are taken in), so a step moves at most one vector into the joint's frame.
-#[inline]
+#[inline(always)]
 fn ccd_sweeps(
     chain: &LimbChain,
     target: Vec3A,
@@ -489,7 +511,7 @@ struct StepCap {
 }
 
 impl StepCap {
-    #[inline]
+    #[inline(always)]
     fn new(max_angle: f32) -> Self {
         let (sin_half, cos_half) = half_sin_cos(max_angle);
         Self {
@@ -501,7 +523,7 @@ impl StepCap {
 
     /// Cap a rotation given as `(cos δ, sin δ)` (unit) at the step angle and return its
     /// half-angle `(cos δ/2 ≥ 0, sin δ/2)`.
-    #[inline]
+    #[inline(always)]
     fn capped_half(&self, cos: f32, sin: f32) -> (f32, f32) {
         if cos < self.cos {
             return (self.cos_half, self.sin_half.copysign(sin));
@@ -531,7 +553,7 @@ enum Limit {
 
 impl Limit {
     /// Clamp a ball (or free) joint rotation; also says whether it changed.
-    #[inline]
+    #[inline(always)]
     fn clamp_ball(&self, q: Quat) -> (Quat, bool) {
         match *self {
             Limit::Ball {
@@ -547,7 +569,7 @@ impl Limit {
 /// The chain's limits with their half-angle sin/cos: the up to 12 limit angles go
 /// through [`half_sin_cos4`] four at a time (3 SIMD evaluations per solve). The chain's
 /// limits are public fields, so this is redone per solve rather than cached in it.
-#[inline]
+#[inline(always)]
 fn prepare_limits(limits: &[JointLimit; CHAIN_JOINTS]) -> [Limit; CHAIN_JOINTS] {
     // Three lanes per joint: hinge (min, max, -), ball (twist_min, twist_max, swing_max).
     let mut angles = [0.0f32; 3 * CHAIN_JOINTS];
@@ -598,7 +620,7 @@ struct Step {
 /// One CCD step on joint `j` from the current `frames` (joint `j`'s frame, joint 1 and
 /// the effector must be up to date). `None` when nothing changes.
 #[allow(clippy::too_many_arguments)]
-#[inline]
+#[inline(always)]
 fn step_joint(
     chain: &LimbChain,
     limit: &Limit,
@@ -646,7 +668,7 @@ fn step_joint(
 /// `v` rotated about the unit `axis` by the angle δ with half-angle `(cos, sin)`
 /// (Rodrigues: `v + sin δ (a × v) + (1 − cos δ)(a (a·v) − v)`): cheaper than building
 /// the joint's new frame and rotating by it.
-#[inline]
+#[inline(always)]
 fn rotate_half(v: Vec3A, axis: Vec3A, (c, s): (f32, f32)) -> Vec3A {
     v + axis.cross(v) * (2.0 * c * s) + (axis * axis.dot(v) - v) * (2.0 * s * s)
 }
@@ -655,7 +677,7 @@ fn rotate_half(v: Vec3A, axis: Vec3A, (c, s): (f32, f32)) -> Vec3A {
 /// half-angle `half`): the pose gets the same rotation expressed in joint `j`'s frame,
 /// then the clamp. `e` is the effector relative to the joint.
 #[allow(clippy::too_many_arguments)]
-#[inline]
+#[inline(always)]
 fn turn_ball(
     chain: &LimbChain,
     limit: &Limit,
@@ -695,7 +717,7 @@ struct Hinge {
 }
 
 impl Hinge {
-    #[inline]
+    #[inline(always)]
     fn new(frames: &Frames, q: Quat, j: usize, axis: Vec3A) -> Self {
         let v = Vec3A::new(q.x, q.y, q.z);
         Hinge {
@@ -707,7 +729,7 @@ impl Hinge {
     }
 
     /// Set the hinge to half-angle `new`; `e` is the effector relative to the joint.
-    #[inline]
+    #[inline(always)]
     fn turn(
         &self,
         chain: &LimbChain,
@@ -737,7 +759,7 @@ impl Hinge {
 /// Rotate the hinge half-angle `(w, p)` by a delta half-angle `(c, s)`, clamp into the
 /// limits. Returns the new half-angle, `None` if it equals the current one (pinned at a
 /// limit), and whether the clamp acted.
-#[inline]
+#[inline(always)]
 fn turn_hinge(
     (w, p): (f32, f32),
     (c, s): (f32, f32),
@@ -754,7 +776,7 @@ fn turn_hinge(
 /// Hinge step: the best rotation about the hinge axis bringing `eff` toward `target`
 /// (both relative to the joint), capped and clamped. Works on half-angle unit complex
 /// numbers: no trig. Returns the new half-angle.
-#[inline]
+#[inline(always)]
 fn hinge_step(
     hinge: &Hinge,
     range: &HalfRange,
@@ -779,7 +801,7 @@ fn hinge_step(
 
 /// Shortest-arc rotation taking direction `from` toward `to`, capped at the step angle:
 /// its unit axis and half-angle `(cos, sin)`.
-#[inline]
+#[inline(always)]
 fn arc_step(from: Vec3A, to: Vec3A, cap: &StepCap) -> Option<(Vec3A, (f32, f32))> {
     let ff = from.length_squared();
     let tt = to.length_squared();
@@ -803,7 +825,7 @@ fn arc_step(from: Vec3A, to: Vec3A, cap: &StepCap) -> Option<(Vec3A, (f32, f32))
 /// `want`, nearest to the current angle, capped and clamped. Returns the new half-angle
 /// (if it changes) and whether the wanted distance could not be set (out of range or
 /// limit hit).
-#[inline]
+#[inline(always)]
 fn reach_hinge_step(
     hinge: &Hinge,
     range: &HalfRange,
@@ -864,7 +886,7 @@ fn reach_hinge_step(
 /// Reach step for the girdle ball joint: the smallest rotation of `b` (proximal joint
 /// relative to the girdle) that puts its end at distance `s` from `d` (the target),
 /// capped: its unit axis and half-angle. `None` when nothing needs to (or can) change.
-#[inline]
+#[inline(always)]
 fn ball_reach_step(b: Vec3A, d: Vec3A, s: f32, cap: &StepCap) -> Option<(Vec3A, (f32, f32))> {
     let ll = b.length_squared();
     let dd = d.length_squared();
@@ -888,4 +910,34 @@ fn ball_reach_step(b: Vec3A, d: Vec3A, s: f32, cap: &StepCap) -> Option<(Vec3A, 
     }
     // A negative sin δ turns about −axis: keep the axis, let the half-angle carry the sign.
     Some((axis / axis_len, cap.capped_half(cos_d, sin_d)))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::Rig;
+
+    /// `solve` (the AVX2 build where the CPU has it) and the plain build of the same
+    /// code give bit-identical results, cold and warm.
+    #[test]
+    fn runtime_dispatch_is_bit_identical() {
+        let rig = Rig::sloth();
+        let params = CcdParams::default();
+        for chain in rig.chains() {
+            let (mut warm_a, mut warm_b) = (ChainPose::NEUTRAL, ChainPose::NEUTRAL);
+            for k in 0..300 {
+                let s = k as f32 / 300.0;
+                let u: [f32; 12] = std::array::from_fn(|i| (0.1 + 0.07 * i as f32 + s) % 1.0);
+                let target = chain.fk_local(&chain.sample_pose(&u)).0[4];
+                let root = RootTransform::IDENTITY;
+                let (mut cold_a, mut cold_b) = (ChainPose::NEUTRAL, ChainPose::NEUTRAL);
+                for (a, b) in [(&mut warm_a, &mut warm_b), (&mut cold_a, &mut cold_b)] {
+                    let ra = solve(chain, root, target.into(), a, &params);
+                    let rb = solve_local(chain, target, b, &params);
+                    assert_eq!(ra, rb);
+                    assert_eq!(a, b);
+                }
+            }
+        }
+    }
 }

@@ -209,7 +209,7 @@ impl JointLimit {
 }
 
 /// `q` with a non-negative scalar part (same rotation).
-#[inline]
+#[inline(always)]
 fn canonical(q: Quat) -> Quat {
     if q.w < 0.0 { -q } else { q }
 }
@@ -254,7 +254,7 @@ pub(crate) fn half_sin_cos(angle: f32) -> (f32, f32) {
 
 /// [`half_sin_cos`] of four angles at once (one SIMD lane each, same bits as the scalar
 /// version): the solver evaluates all of a chain's limit angles in three calls.
-#[inline]
+#[inline(always)]
 pub(crate) fn half_sin_cos4(angles: Vec4) -> (Vec4, Vec4) {
     half_sin_cos_poly(angles)
 }
@@ -311,7 +311,7 @@ impl HalfRange {
 /// Hinge half-angle of `q` about the unit `axis` as a unit complex number
 /// `(cos θ/2, sin θ/2)` with `cos ≥ 0` (so `θ ∈ [-π, π]`); any off-axis part of `q` is
 /// dropped. A pure 180° off-axis rotation (no twist part) gives angle 0.
-#[inline]
+#[inline(always)]
 pub(crate) fn hinge_half(q: Quat, axis: Vec3A) -> (f32, f32) {
     let p = Vec3A::new(q.x, q.y, q.z).dot(axis);
     let (w, p) = if q.w < 0.0 { (-q.w, -p) } else { (q.w, p) };
@@ -327,7 +327,7 @@ pub(crate) fn hinge_half(q: Quat, axis: Vec3A) -> (f32, f32) {
 /// `cos θ/2 ≥ 0`, `sin θ/2` grows monotonically with θ. `cos θ/2 < 0` means `|θ| > π`
 /// (an unwrapped sum of angles), which is beyond either limit on its sign's side.
 /// Returns the clamped pair and whether it changed.
-#[inline]
+#[inline(always)]
 pub(crate) fn clamp_hinge_half(w: f32, p: f32, range: &HalfRange) -> (f32, f32, bool) {
     let ((c_min, s_min), (c_max, s_max)) = (range.lo, range.hi);
     if w < 0.0 {
@@ -347,7 +347,7 @@ pub(crate) fn clamp_hinge_half(w: f32, p: f32, range: &HalfRange) -> (f32, f32, 
 }
 
 /// The hinge rotation with half-angle `(cos, sin) = (w, p)` about `axis`.
-#[inline]
+#[inline(always)]
 pub(crate) fn hinge_quat(axis: Vec3A, w: f32, p: f32) -> Quat {
     let v = axis * p;
     Quat::from_xyzw(v.x, v.y, v.z, w)
@@ -356,7 +356,7 @@ pub(crate) fn hinge_quat(axis: Vec3A, w: f32, p: f32) -> Quat {
 /// Swing–twist clamp with no trigonometry: `swing_half` is `(cos, sin)` of half the
 /// largest swing, `twist` the twist range's half-angles. Returns the clamped rotation
 /// and whether it changed: `q` comes back bit-identical when it is inside the limit.
-#[inline]
+#[inline(always)]
 pub(crate) fn clamp_ball(
     q: Quat,
     axis: Vec3A,
