@@ -118,8 +118,9 @@ fn tiny_run_writes_the_json_report() {
             }
         }
         assert!(r["traces_per_frame"].as_f64().unwrap() >= 0.0);
-        // Every limb is solved every frame: at least one CCD iteration each.
-        assert!(r["ccd_iterations_per_limb"].as_f64().unwrap() >= 1.0, "{r}");
+        // Limbs are solved every frame; a warm solve already within
+        // tolerance exits before any sweep, so the mean may be below 1.
+        assert!(r["ccd_iterations_per_limb"].as_f64().unwrap() > 0.0, "{r}");
         // The baseline computes the same crowd.
         let b = &r["baseline"];
         assert_eq!(b["frames"], 4);
