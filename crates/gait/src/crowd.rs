@@ -160,7 +160,7 @@ mod tests {
             (3, Vec3::NAN),
         ]);
         assert_eq!(g.len(), 2);
-        assert!(!g.blocked(1, Vec3::new(0.5, 0.0, 0.0)));
+        assert!(!g.blocked(1, Vec3::new(0.7, 0.0, 0.0)));
         assert!(g.blocked(1, Vec3::new(0.31, 0.0, 0.0)));
         assert!(!g.blocked(2, Vec3::new(0.31, 0.0, 0.0)));
         assert!(!g.blocked(1, Vec3::NAN));
