@@ -232,9 +232,11 @@ pub struct WorstSloths {
     pub min_limbs_in_contact: Option<u32>,
 }
 
-fn worst_by(rows: &[(u32, JudgeReport)], key: impl Fn(&JudgeReport) -> f32) -> Option<u32> {
-    rows.iter()
-        .max_by(|a, b| key(&a.1).total_cmp(&key(&b.1)).then(b.0.cmp(&a.0)))
+fn worst_by<'a>(
+    rows: impl Iterator<Item = (u32, &'a JudgeReport)>,
+    key: impl Fn(&JudgeReport) -> f32,
+) -> Option<u32> {
+    rows.max_by(|a, b| key(a.1).total_cmp(&key(b.1)).then(b.0.cmp(&a.0)))
         .map(|r| r.0)
 }
 
@@ -615,13 +617,13 @@ impl Crowd {
             .unwrap_or_else(|| Judge::new(Tolerances::issue_limits(), f32::INFINITY).finish());
         let gait = GaitReport::aggregate(rows.iter().map(|r| &r.4));
         let stuck_ids: Vec<u32> = rows.iter().filter(|r| r.5).map(|r| r.0).collect();
-        let reports: Vec<(u32, JudgeReport)> = rows.iter().map(|r| (r.0, r.3.clone())).collect();
+        let reports = || rows.iter().map(|r| (r.0, &r.3));
         let worst_sloths = WorstSloths {
-            max_grip_slip: worst_by(&reports, |j| j.max_grip_slip_m),
-            max_surface_gap: worst_by(&reports, |j| j.max_surface_gap_m),
-            max_reach_ratio: worst_by(&reports, |j| j.max_reach_ratio),
-            max_penetration: worst_by(&reports, |j| j.max_penetration_m),
-            min_limbs_in_contact: worst_by(&reports, |j| -(j.min_limbs_in_contact as f32)),
+            max_grip_slip: worst_by(reports(), |j| j.max_grip_slip_m),
+            max_surface_gap: worst_by(reports(), |j| j.max_surface_gap_m),
+            max_reach_ratio: worst_by(reports(), |j| j.max_reach_ratio),
+            max_penetration: worst_by(reports(), |j| j.max_penetration_m),
+            min_limbs_in_contact: worst_by(reports(), |j| -(j.min_limbs_in_contact as f32)),
         };
         let time_s = rows.first().map_or(0.0, |r| r.1);
         let state_hash = format!("{:016x}", self.state_hash());
