@@ -403,6 +403,16 @@ fn rotation_from(f: Vec3, up: Vec3) -> Quat {
     Quat::from_mat3(&glam::Mat3::from_cols(x, y, z)).normalize()
 }
 
+/// One stance a step passes through (see [`Sloth::step_reachable`]): the
+/// four IK targets, how close each claw must get, and the body they imply.
+#[derive(Clone, Copy, Default)]
+struct StanceCheck {
+    grips: [Vec3; 4],
+    tol: [f32; 4],
+    pos: Vec3,
+    rot: Quat,
+}
+
 impl Sloth {
     /// Places a sloth with all four limbs gripping around `hint`, body
     /// averaged, limbs solved. Grips are placed analytically on the surface.
@@ -596,35 +606,14 @@ impl Sloth {
         })
     }
 
-    /// Whether every limb can hold `grips` from the body those grips imply:
-    /// a distance test, then a CCD solve within the joint limits (warm from
-    /// the limb's current pose) that must end within `tol[i]` of the grip.
-    fn stance_reachable(
-        &self,
-        w: &World<'_>,
-        grips: &[Vec3; 4],
-        tol: [f32; 4],
-        offset: f32,
-    ) -> bool {
-        let (pos, rot) = self.body_for_targets(w, grips, offset);
-        let max = w.rig.reach * w.cfg.max_reach_fraction;
-        let min = w.rig.reach * MIN_REACH_FRACTION;
-        (0..4).all(|i| {
-            let root = w.rig.root_ws(i, pos, rot);
-            let d = Vec3::from(root.position).distance(grips[i]);
-            if d > max || d < min {
-                return false;
-            }
-            let mut pose = self.limbs[i].pose;
-            let r = slothsim_rig::solve(&w.rig.chains[i], root, grips[i], &mut pose, w.ccd);
-            r.error <= tol[i]
-        })
-    }
-
     /// Whether limb `li` can step to `grip` (surface `normal`): with the
     /// stepping limb at points along its arc the others still reach their
     /// grips (transient tolerance), and at the end every limb reaches its grip
-    /// (the stepping limb tightly).
+    /// (the stepping limb tightly); no stance pushes the body into a support.
+    ///
+    /// The checks run cheapest first over all four stances (root distances,
+    /// then torso penetration, then CCD within the joint limits), so most
+    /// rejections cost no IK at all.
     fn step_reachable(
         &self,
         w: &World<'_>,
@@ -636,39 +625,65 @@ impl Sloth {
         let mut grips = self.limbs.map(|l| l.grip.point);
         let from = (grips[li], self.limbs[li].grip.normal);
         let mut weights = self.trunk_weights(w);
-        // Points of the arc as `body_average` will draw it.
-        let mut mid_tol = [SWING_IK_TOLERANCE; 4];
-        mid_tol[li] = f32::INFINITY;
-        for t in SWING_CHECKS {
-            grips[li] = swing_point(
-                from,
-                (grip, normal),
-                t,
-                w.cfg.swing_clearance_m,
-                self.body_rot * Vec3::NEG_Y,
-            );
-            weights[li] = trunk_blend(w, self.limbs[li].grip.support, support, t);
-            let offset = body_offset(w, weights);
-            if !self.stance_reachable(w, &grips, mid_tol, offset)
-                || self.stance_penetrates(w, &grips, offset)
-            {
-                return false;
+        // Points of the arc as `body_average` will draw them, then the end.
+        let mut stances = [StanceCheck::default(); SWING_CHECKS.len() + 1];
+        for (k, st) in stances.iter_mut().enumerate() {
+            let mut tol;
+            if let Some(&t) = SWING_CHECKS.get(k) {
+                grips[li] = swing_point(
+                    from,
+                    (grip, normal),
+                    t,
+                    w.cfg.swing_clearance_m,
+                    self.body_rot * Vec3::NEG_Y,
+                );
+                weights[li] = trunk_blend(w, self.limbs[li].grip.support, support, t);
+                tol = [SWING_IK_TOLERANCE; 4];
+                // The stepping limb is in the air: its pose is free.
+                tol[li] = f32::INFINITY;
+            } else {
+                grips[li] = grip;
+                weights[li] = trunk_blend(w, support, support, 1.0);
+                tol = [HOLD_IK_TOLERANCE; 4];
+                tol[li] = STANCE_IK_TOLERANCE;
             }
+            let offset = body_offset(w, weights);
+            let (pos, rot) = self.body_for_targets(w, &grips, offset);
+            *st = StanceCheck {
+                grips,
+                tol,
+                pos,
+                rot,
+            };
         }
-        weights[li] = trunk_blend(w, support, support, 1.0);
-        grips[li] = grip;
-        let mut end_tol = [HOLD_IK_TOLERANCE; 4];
-        end_tol[li] = STANCE_IK_TOLERANCE;
-        let offset = body_offset(w, weights);
-        self.stance_reachable(w, &grips, end_tol, offset)
-            && !self.stance_penetrates(w, &grips, offset)
+        let max = w.rig.reach * w.cfg.max_reach_fraction;
+        let min = w.rig.reach * MIN_REACH_FRACTION;
+        let in_band = stances.iter().all(|st| {
+            (0..4).all(|i| {
+                let root = Vec3::from(w.rig.root_ws(i, st.pos, st.rot).position);
+                let d = root.distance(st.grips[i]);
+                !(d > max || d < min)
+            })
+        });
+        in_band
+            && !stances.iter().any(|st| self.body_penetrates(w, st.pos, st.rot))
+            && stances.iter().all(|st| {
+                (0..4).all(|i| {
+                    if st.tol[i].is_infinite() {
+                        return true;
+                    }
+                    let root = w.rig.root_ws(i, st.pos, st.rot);
+                    let mut pose = self.limbs[i].pose;
+                    let r = slothsim_rig::solve(&w.rig.chains[i], root, st.grips[i], &mut pose, w.ccd);
+                    r.error <= st.tol[i]
+                })
+            })
     }
 
-    /// Whether the body these grips imply would enter a support near them
+    /// Whether a body at (`pos`, `rot`) would enter a support near the grips
     /// (e.g. walking a branch into its trunk).
-    fn stance_penetrates(&self, w: &World<'_>, grips: &[Vec3; 4], offset: f32) -> bool {
+    fn body_penetrates(&self, w: &World<'_>, pos: Vec3, rot: Quat) -> bool {
         let scene = w.scene();
-        let (pos, rot) = self.body_for_targets(w, grips, offset);
         let torso = [pos + rot * w.rig.torso_ms[0], pos + rot * w.rig.torso_ms[1]];
         // The supports the limbs hold and their neighbours (as the judge sees them).
         let mut seen = [SupportId(u32::MAX); 4];
