@@ -667,17 +667,26 @@ impl Sloth {
         });
         in_band
             && !stances.iter().any(|st| self.body_penetrates(w, st.pos, st.rot))
-            && stances.iter().all(|st| {
-                (0..4).all(|i| {
-                    if st.tol[i].is_infinite() {
-                        return true;
-                    }
-                    let root = w.rig.root_ws(i, st.pos, st.rot);
-                    let mut pose = self.limbs[i].pose;
-                    let r = slothsim_rig::solve(&w.rig.chains[i], root, st.grips[i], &mut pose, w.ccd);
-                    r.error <= st.tol[i]
-                })
-            })
+            && self.stances_hold(w, li, &stances)
+    }
+
+    /// The CCD part of [`Self::step_reachable`]: every limb with a finite
+    /// tolerance reaches its target in every stance. The stepping limb at the
+    /// end stance goes first: it is the check that fails most often (the
+    /// search tries the farthest candidates first).
+    fn stances_hold(&self, w: &World<'_>, li: usize, stances: &[StanceCheck]) -> bool {
+        let last = stances.len() - 1;
+        let others = (0..4).filter(|&i| i != li);
+        let order = std::iter::once((last, li))
+            .chain(others.clone().map(|i| (last, i)))
+            .chain((0..last).flat_map(|k| others.clone().map(move |i| (k, i))));
+        order.into_iter().all(|(k, i)| {
+            let st = &stances[k];
+            let root = w.rig.root_ws(i, st.pos, st.rot);
+            let mut pose = self.limbs[i].pose;
+            let r = slothsim_rig::solve(&w.rig.chains[i], root, st.grips[i], &mut pose, w.ccd);
+            r.error <= st.tol[i]
+        })
     }
 
     /// Whether a body at (`pos`, `rot`) would enter a support near the grips
