@@ -684,7 +684,12 @@ impl Sloth {
             let st = &stances[k];
             let root = w.rig.root_ws(i, st.pos, st.rot);
             let mut pose = self.limbs[i].pose;
-            let r = slothsim_rig::solve(&w.rig.chains[i], root, st.grips[i], &mut pose, w.ccd);
+            // Solved only as close as the check needs: a passing check stops early.
+            let params = CcdParams {
+                tolerance: st.tol[i],
+                ..*w.ccd
+            };
+            let r = slothsim_rig::solve(&w.rig.chains[i], root, st.grips[i], &mut pose, &params);
             r.error <= st.tol[i]
         })
     }
