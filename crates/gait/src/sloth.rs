@@ -32,8 +32,16 @@ use crate::rigdata::{BODY_RADIUS, RigData};
 pub const MAX_TRACES: usize = 8;
 /// Reach-checked step-search candidates per limb per frame.
 const MAX_REACH_CHECKS_PER_FRAME: u32 = 8;
-/// Candidates traced per searching limb per frame.
-const CANDIDATES_PER_LIMB: usize = 4;
+/// Candidates traced per searching limb per frame. One: the search stops at
+/// the first candidate that passes the reach checks (farthest first), and its
+/// trace almost always confirms it; when it does not, the search goes on
+/// from the next candidate in the next frame.
+const CANDIDATES_PER_LIMB: usize = 1;
+/// A traced grip this close to the candidate's predicted one (and with its
+/// normal within [`RECHECK_NORMAL_COS`]) is the grip the reach checks passed.
+const RECHECK_DISTANCE: f32 = 1e-4;
+/// See [`RECHECK_DISTANCE`].
+const RECHECK_NORMAL_COS: f32 = 0.9999;
 /// How far outside the surface a grip trace starts.
 const TRACE_STANDOFF: f32 = 0.15;
 /// Grips keep this far from a support's ends.
@@ -303,6 +311,8 @@ pub struct Candidate {
     pub sdir: f32,
     /// Direction from the axis toward the trace origin (the limb's side).
     pub out: Vec3,
+    /// The grip the reach checks passed at (on the support model's surface).
+    pub point: Vec3,
 }
 
 /// Spawn description: a support, a point on its axis, travel direction and the body side.
@@ -741,7 +751,11 @@ impl Sloth {
             if hit.support != m.support || hit.normal.dot(m.out) < 0.3 {
                 continue;
             }
-            if !self.step_reachable(w, li, hit.point, hit.normal, m.support) {
+            // The candidate passed the reach checks at its predicted grip; the
+            // hit is re-checked only if the surface is elsewhere.
+            let as_checked = hit.point.distance(m.point) <= RECHECK_DISTANCE
+                && hit.normal.dot(m.out) >= RECHECK_NORMAL_COS;
+            if !as_checked && !self.step_reachable(w, li, hit.point, hit.normal, m.support) {
                 continue;
             }
             let grip = Grip {
@@ -1113,6 +1127,7 @@ impl Sloth {
                 u,
                 sdir,
                 out,
+                point: approx,
             },
         ))
     }
