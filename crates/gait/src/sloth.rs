@@ -40,6 +40,10 @@ const CANDIDATES_PER_LIMB: usize = 1;
 /// A traced grip this close to the candidate's predicted one (and with its
 /// normal within [`RECHECK_NORMAL_COS`]) is the grip the reach checks passed.
 const RECHECK_DISTANCE: f32 = 1e-4;
+/// Reach checks give up once a sweep gains less than this (metres)…
+const CHECK_MIN_IMPROVEMENT: f32 = 1e-5;
+/// …or after this many sweeps.
+const CHECK_MAX_ITERATIONS: u32 = 32;
 /// See [`RECHECK_DISTANCE`].
 const RECHECK_NORMAL_COS: f32 = 0.9999;
 /// How far outside the surface a grip trace starts.
@@ -697,6 +701,8 @@ impl Sloth {
             // Solved only as close as the check needs: a passing check stops early.
             let params = CcdParams {
                 tolerance: st.tol[i],
+                min_improvement: CHECK_MIN_IMPROVEMENT,
+                max_iterations: CHECK_MAX_ITERATIONS,
                 ..*w.ccd
             };
             let r = slothsim_rig::solve(&w.rig.chains[i], root, st.grips[i], &mut pose, &params);
