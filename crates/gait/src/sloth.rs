@@ -32,6 +32,8 @@ use crate::rigdata::{BODY_RADIUS, RigData};
 pub const MAX_TRACES: usize = 8;
 /// Reach-checked step-search candidates per limb per frame.
 const MAX_REACH_CHECKS_PER_FRAME: u32 = 8;
+/// Coarse search stride, in back-offs (see [`Sloth::queue_candidates`]).
+const COARSE_STRIDE: u32 = 3;
 /// Candidates traced per searching limb per frame. One: the search stops at
 /// the first candidate that passes the reach checks (farthest first), and its
 /// trace almost always confirms it; when it does not, the search goes on
@@ -44,6 +46,9 @@ const RECHECK_DISTANCE: f32 = 1e-4;
 const CHECK_MIN_IMPROVEMENT: f32 = 1e-5;
 /// …or after this many sweeps.
 const CHECK_MAX_ITERATIONS: u32 = 32;
+/// A reach check polishes (see `slothsim_rig::refine`) only sweeps that
+/// stalled within this distance (metres) of the target.
+const CHECK_POLISH_MAX_ERROR: f32 = 0.01;
 /// See [`RECHECK_DISTANCE`].
 const RECHECK_NORMAL_COS: f32 = 0.9999;
 /// How far outside the surface a grip trace starts.
@@ -133,6 +138,8 @@ pub struct Search {
     pub support: SupportId,
     /// Travel direction along it.
     pub sdir: f32,
+    /// Arc length the search started at (its farthest candidate).
+    pub first_u: f32,
     /// Next candidate arc length.
     pub next_u: f32,
     /// Last candidate arc length (inclusive).
@@ -466,6 +473,7 @@ impl Sloth {
             search: Search {
                 support: hint.support,
                 sdir,
+                first_u: 0.0,
                 next_u: 0.0,
                 last_u: 0.0,
                 neighbour: u16::MAX,
@@ -699,14 +707,26 @@ impl Sloth {
             let root = w.rig.root_ws(i, st.pos, st.rot);
             let mut pose = self.limbs[i].pose;
             // Solved only as close as the check needs: a passing check stops early.
-            let params = CcdParams {
+            let mut params = CcdParams {
                 tolerance: st.tol[i],
                 min_improvement: CHECK_MIN_IMPROVEMENT,
                 max_iterations: CHECK_MAX_ITERATIONS,
+                refine: false,
                 ..*w.ccd
             };
-            let r = slothsim_rig::solve(&w.rig.chains[i], root, st.grips[i], &mut pose, &params);
-            r.error <= st.tol[i]
+            let chain = &w.rig.chains[i];
+            let r = slothsim_rig::solve(chain, root, st.grips[i], &mut pose, &params);
+            if r.error <= st.tol[i] {
+                return true;
+            }
+            // Sweeps that stalled close to the target: the limit-aware polish
+            // may still get there (a corner of the joint limits); far off, it
+            // would not, and is not paid for.
+            if r.error > CHECK_POLISH_MAX_ERROR {
+                return false;
+            }
+            params.refine = w.ccd.refine;
+            slothsim_rig::solve(chain, root, st.grips[i], &mut pose, &params).error <= st.tol[i]
         })
     }
 
@@ -808,25 +828,43 @@ impl Sloth {
             let s = scene.support(sr.support);
             let len = s.length();
             let mut u = sr.next_u;
-            let step_sign = -sr.sdir; // back off toward the current grip
+            // Back off toward the current grip in coarse strides; the fine
+            // (back-off) points above the first coarse candidate that passes
+            // are then tried farthest first, so the farthest valid grip is
+            // found at about a third of the checks.
+            let fine = w.cfg.backoff_m;
+            let coarse = fine * COARSE_STRIDE as f32;
+            let in_range = |u: f32| (END_MARGIN..=len - END_MARGIN).contains(&u);
             while queued < CANDIDATES_PER_LIMB
                 && checks < MAX_REACH_CHECKS_PER_FRAME
                 && (u - sr.last_u) * sr.sdir >= -1e-6
             {
                 let cand_u = u;
-                u += step_sign * w.cfg.backoff_m;
-                if cand_u < END_MARGIN || cand_u > len - END_MARGIN {
+                u -= sr.sdir * coarse;
+                if !in_range(cand_u) {
                     continue;
                 }
-                if let Some((req, meta)) =
-                    self.candidate(w, li, sr.support, cand_u, sr.sdir, sr.retreat, &mut checks)
-                {
-                    if batch.push(req, meta) {
-                        queued += 1;
-                    } else {
-                        u -= step_sign * w.cfg.backoff_m;
+                let mut check = |u: f32| {
+                    self.candidate(w, li, sr.support, u, sr.sdir, sr.retreat, &mut checks)
+                };
+                let Some(mut found) = check(cand_u) else {
+                    continue;
+                };
+                for j in (1..COARSE_STRIDE).rev() {
+                    let fu = cand_u + sr.sdir * fine * j as f32;
+                    if (fu - sr.first_u) * sr.sdir > 1e-6 || !in_range(fu) {
+                        continue;
+                    }
+                    if let Some(f) = check(fu) {
+                        found = f;
                         break;
                     }
+                }
+                if batch.push(found.0, found.1) {
+                    queued += 1;
+                } else {
+                    u += sr.sdir * coarse;
+                    break;
                 }
             }
             self.limbs[li].search.next_u = u;
@@ -888,6 +926,7 @@ impl Sloth {
         self.limbs[li].search = Search {
             support: g.support,
             sdir: g.sdir,
+            first_u: g.u - g.sdir * w.cfg.min_step_m,
             next_u: g.u - g.sdir * w.cfg.min_step_m,
             last_u: g.u - g.sdir * w.cfg.max_step_m,
             // Neighbours are exhausted.
@@ -958,6 +997,7 @@ impl Sloth {
         Some(Search {
             support: sid,
             sdir,
+            first_u: entry.u + sdir * w.cfg.search_distance_m,
             next_u: entry.u + sdir * w.cfg.search_distance_m,
             last_u: entry.u - sdir * 0.15,
             neighbour: k,
@@ -1016,6 +1056,7 @@ impl Sloth {
         let own = Search {
             support: g.support,
             sdir: g.sdir,
+            first_u: g.u + g.sdir * w.cfg.search_distance_m,
             next_u: g.u + g.sdir * w.cfg.search_distance_m,
             last_u: g.u,
             neighbour: u16::MAX,
@@ -1254,6 +1295,7 @@ impl Sloth {
             self.limbs[li].search = Search {
                 support: g.support,
                 sdir: g.sdir,
+                first_u: g.u + g.sdir * w.cfg.search_distance_m,
                 next_u: g.u + g.sdir * w.cfg.search_distance_m,
                 last_u: g.u,
                 neighbour: u16::MAX,
