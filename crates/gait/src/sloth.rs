@@ -424,6 +424,35 @@ fn rotation_from(f: Vec3, up: Vec3) -> Quat {
     Quat::from_mat3(&glam::Mat3::from_cols(x, y, z)).normalize()
 }
 
+/// Whether CCD within the joint limits, from `pose`, gets the claw within
+/// `tol` of `target_ws` (and the error it ends at); `pose` is left where the
+/// solve ended. Solved only as close as the check needs (a passing check stops
+/// early); the limit-aware polish (see `slothsim_rig::refine`) runs only for
+/// sweeps that stalled within [`CHECK_POLISH_MAX_ERROR`] — close to a corner
+/// of the joint limits it may still get there, far off it would not.
+fn reach_check(
+    chain: &slothsim_rig::LimbChain,
+    root: slothsim_rig::RootTransform,
+    target_ws: Vec3,
+    pose: &mut ChainPose,
+    tol: f32,
+    base: &CcdParams,
+) -> (bool, f32) {
+    let mut params = CcdParams {
+        tolerance: tol,
+        min_improvement: CHECK_MIN_IMPROVEMENT,
+        refine: false,
+        ..*base
+    };
+    let r = slothsim_rig::solve(chain, root, target_ws, pose, &params);
+    if r.error <= tol || r.error > CHECK_POLISH_MAX_ERROR || !base.refine {
+        return (r.error <= tol, r.error);
+    }
+    params.refine = true;
+    let r = slothsim_rig::solve(chain, root, target_ws, pose, &params);
+    (r.error <= tol, r.error)
+}
+
 /// One stance a step passes through (see [`Sloth::step_reachable`]): the
 /// four IK targets, how close each claw must get, and the body they imply.
 #[derive(Clone, Copy, Default)]
@@ -538,17 +567,21 @@ impl Sloth {
                 // stance then has room both ways); else the nearest miss.
                 let mut reachable = [(0.0f32, ChainPose::NEUTRAL); 31];
                 let mut n_reachable = 0;
+                // The scan moves the target 1 cm at a time: each solve starts
+                // warm from the last (a cold solve costs ~40 warm ones).
+                let mut pose = ChainPose::NEUTRAL;
                 for k in -15..=15 {
                     let u = (u0 + k as f32 * 0.01).clamp(END_MARGIN, len - END_MARGIN);
                     let a = axis_at(s, u);
                     let p = a.point + out * a.radius;
-                    let mut pose = ChainPose::NEUTRAL;
-                    let r = slothsim_rig::solve(&w.rig.chains[li], root, p, &mut pose, &cold);
-                    if r.error <= STANCE_IK_TOLERANCE {
+                    let chain = &w.rig.chains[li];
+                    let (ok, error) =
+                        reach_check(chain, root, p, &mut pose, STANCE_IK_TOLERANCE, &cold);
+                    if ok {
                         reachable[n_reachable] = (u, pose);
                         n_reachable += 1;
                     }
-                    let score = r.error + 0.001 * (k as f32).abs();
+                    let score = error + 0.001 * (k as f32).abs();
                     if score < best.0 {
                         best = (score, u, pose);
                     }
@@ -706,27 +739,11 @@ impl Sloth {
             let st = &stances[k];
             let root = w.rig.root_ws(i, st.pos, st.rot);
             let mut pose = self.limbs[i].pose;
-            // Solved only as close as the check needs: a passing check stops early.
-            let mut params = CcdParams {
-                tolerance: st.tol[i],
-                min_improvement: CHECK_MIN_IMPROVEMENT,
+            let params = CcdParams {
                 max_iterations: CHECK_MAX_ITERATIONS,
-                refine: false,
                 ..*w.ccd
             };
-            let chain = &w.rig.chains[i];
-            let r = slothsim_rig::solve(chain, root, st.grips[i], &mut pose, &params);
-            if r.error <= st.tol[i] {
-                return true;
-            }
-            // Sweeps that stalled close to the target: the limit-aware polish
-            // may still get there (a corner of the joint limits); far off, it
-            // would not, and is not paid for.
-            if r.error > CHECK_POLISH_MAX_ERROR {
-                return false;
-            }
-            params.refine = w.ccd.refine;
-            slothsim_rig::solve(chain, root, st.grips[i], &mut pose, &params).error <= st.tol[i]
+            reach_check(&w.rig.chains[i], root, st.grips[i], &mut pose, st.tol[i], &params).0
         })
     }
 
@@ -745,7 +762,7 @@ impl Sloth {
             seen[k] = sid;
             let deep = std::iter::once(&sid)
                 .chain(w.adjacency.neighbours(sid))
-                .any(|&id| torso_penetration(scene.support(id), torso) > STANCE_MAX_PENETRATION);
+                .any(|&id| torso_penetrates(scene.support(id), torso, STANCE_MAX_PENETRATION));
             if deep {
                 return true;
             }
@@ -1378,6 +1395,29 @@ impl Sloth {
             has_nan,
         }
     }
+}
+
+/// Whether the torso capsule enters a support deeper than `depth`: the same
+/// as `torso_penetration(s, torso) > depth`, with segments that cannot be that
+/// close skipped by a bounding-sphere test (most of them).
+fn torso_penetrates(s: &slothsim_scene::Support, torso: [Vec3; 2], depth: f32) -> bool {
+    let m = (torso[0] + torso[1]) * 0.5;
+    let h = torso[0].distance(torso[1]) * 0.5;
+    for (i, w) in s.nodes.windows(2).enumerate() {
+        let c = (w[0] + w[1]) * 0.5;
+        let k = w[0].distance(w[1]) * 0.5;
+        // Segment distance ≥ |m − c| − h − k (triangle inequality); 0.1 mm margin.
+        let reach = BODY_RADIUS + s.radii[i].max(s.radii[i + 1]) - depth + h + k + 1e-4;
+        if m.distance_squared(c) > reach * reach {
+            continue;
+        }
+        let (d, t) = segment_distance(torso[0], torso[1], w[0], w[1]);
+        let r = s.radii[i] + (s.radii[i + 1] - s.radii[i]) * t;
+        if BODY_RADIUS + r - d > depth {
+            return true;
+        }
+    }
+    false
 }
 
 /// Depth by which the torso capsule (radius [`BODY_RADIUS`]) enters a support.
