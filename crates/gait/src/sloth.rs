@@ -52,6 +52,9 @@ const CHECK_POLISH_MAX_ERROR: f32 = 0.01;
 /// The body turns up to this fast (rad/s) without smoothing lag; faster
 /// changes of formula 6's rotation are smoothed (`body_smoothing_s`).
 const BODY_FREE_TURN_RATE: f32 = 0.5;
+/// A limb settled short of its target stays so while the target moves less
+/// than this (metres) in the limb's root frame.
+const SETTLED_MOVE: f32 = 1e-5;
 /// See [`RECHECK_DISTANCE`].
 const RECHECK_NORMAL_COS: f32 = 0.9999;
 /// How far outside the surface a grip trace starts.
@@ -183,6 +186,10 @@ pub struct LimbState {
     pub search: Search,
     /// The gait clock asked this limb to step and it has not yet.
     pub due: bool,
+    /// The target (chain-root frame) of the last solve, if that solve ended
+    /// short of it (joint limits): the pose is settled there until the target
+    /// moves (see [`Sloth::solve_limbs`]).
+    pub settled_ls: Option<Vec3>,
 }
 
 /// Why a sloth stopped.
@@ -512,6 +519,7 @@ impl Sloth {
                 retreat: false,
             },
             due: false,
+            settled_ls: None,
         }; 4];
         let len = s.length();
         for limb in Limb::ALL {
@@ -1267,6 +1275,17 @@ impl Sloth {
         for li in 0..4 {
             let root = w.rig.root_ws(li, self.body_pos, self.body_rot);
             let l = &mut self.limbs[li];
+            // A limb that could not reach its target keeps its settled pose
+            // while the target stays put in its root frame (a resting sloth):
+            // solving again would only repeat the polish of the last frame.
+            let target_ls = Vec3::from(root.inverse_transform_point(l.target.into()));
+            if l.settled_ls
+                .is_some_and(|t| t.distance_squared(target_ls) <= SETTLED_MOVE * SETTLED_MOVE)
+            {
+                l.root = root.position.into();
+                l.effector = w.rig.chains[li].fk(root, &l.pose)[4];
+                continue;
+            }
             // A warm solve may stop short when its smoothness guard caps a
             // large joint move; resume from where it stopped (rare).
             let mut r = slothsim_rig::solve(&w.rig.chains[li], root, l.target, &mut l.pose, params);
@@ -1282,6 +1301,7 @@ impl Sloth {
                     break;
                 }
             }
+            l.settled_ls = (r.error > params.tolerance).then_some(target_ls);
             l.root = root.position.into();
             l.effector = w.rig.chains[li].fk(root, &l.pose)[4];
         }
