@@ -543,6 +543,13 @@ impl Sloth {
         sloth
     }
 
+    /// Whether all four limbs hold support `sid` (none swinging).
+    fn holds_only(&self, sid: SupportId) -> bool {
+        self.limbs
+            .iter()
+            .all(|l| l.phase != LimbPhase::Swinging && l.grip.support == sid)
+    }
+
     fn targets(&self) -> [Vec3; 4] {
         self.limbs.map(|l| l.target)
     }
@@ -1167,7 +1174,9 @@ impl Sloth {
         if let Some((gs, gp)) = self.goal {
             let s = w.scene().support(gs);
             let a = project(s, self.body_pos);
-            if a.point.distance(gp) <= self.goal_tolerance && a.point.distance(self.body_pos) < 0.6
+            if self.holds_only(gs)
+                && a.point.distance(gp) <= self.goal_tolerance
+                && a.point.distance(self.body_pos) < 0.6
             {
                 self.status = Status::Arrived;
             }
@@ -1252,10 +1261,13 @@ impl Sloth {
                 penetration = penetration.max(torso_penetration(scene.support(id), torso));
             }
         }
+        // Until all four limbs hold the goal's support (e.g. still under a
+        // branch that passes near the goal on a trunk) the distance is the
+        // body's straight distance to the goal point.
         let goal_distance_m = match self.goal {
             Some((gs, gp)) => {
                 let a = project(scene.support(gs), self.body_pos);
-                if a.point.distance(self.body_pos) < 0.6 {
+                if self.holds_only(gs) && a.point.distance(self.body_pos) < 0.6 {
                     a.point.distance(gp)
                 } else {
                     self.body_pos.distance(gp)
