@@ -183,3 +183,19 @@ fn parallel_branches_change_from_one_to_the_other() {
         assert_eq!(r.observations.last().unwrap().limbs[0].support.0, 1);
     }
 }
+
+#[test]
+fn branch_to_trunk_head_up_inside_the_thesis_range() {
+    // transfer_to_trunk: fore limbs take the trunk above the hind limbs, the
+    // body rolls to face the trunk from beside the branch, then climbs down
+    // tail first (head up) to the goal on the trunk.
+    for angle in [95.0, 110.0, 125.0] {
+        let r = run("branch_trunk", Some(angle), TrunkVariant::Up, Profile::Free);
+        assert_measures_within_issue_limits(&r);
+        assert_eq!(r.judge.head_below_hips_on_trunk_frames, 0);
+        // Arrived means all four limbs hold the trunk (support 0).
+        let last = r.observations.last().unwrap();
+        assert!(last.limbs.iter().all(|l| l.support.0 == 0));
+        assert!((last.body_rot * glam::Vec3::Z).y > 0.9, "head up");
+    }
+}

@@ -85,6 +85,35 @@ const SWING_IK_TOLERANCE: f32 = 0.0035;
 const MAX_GIRDLE_LEAD: f32 = 0.8;
 /// Back-off of the lookahead's coarse candidate scan.
 const LOOKAHEAD_STRIDE: f32 = 0.02;
+/// On a trunk reached from a branch the body faces the trunk from this angle
+/// around it from the branch (radians): beside the branch, head clear of it.
+const TRANSFER_SIDE_ANGLE: f32 = std::f32::consts::FRAC_PI_3;
+/// A step across a branch ↔ trunk junction may be this many max steps long:
+/// it reaches around the trunk, and the IK reach checks bound it.
+const TRANSFER_STEP_FACTOR: f32 = 1.5;
+/// The body's roll over a transfer follows the share of limbs on the trunk to this power.
+const TRANSFER_ROLL_POWER: f32 = 0.75;
+/// Mid-transfer the body's up leans this much (at most) away from the trunk.
+const TRANSFER_AWAY: f32 = 0.3;
+/// A fore limb takes a trunk at least this far above the hind limbs' grips (head up).
+const HEAD_UP_MARGIN: f32 = 0.05;
+
+/// A change between a branch and a trunk in progress (SPEC `transfer_to_trunk`,
+/// `transfer_to_branch`). On the trunk the body faces it from `side`; while
+/// the limbs move across, the body rolls about its long axis between hanging
+/// below the branch and facing the trunk (see [`Sloth::body_frame`]).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Transfer {
+    /// The support the limbs move onto.
+    pub to: SupportId,
+    /// The trunk.
+    pub trunk: SupportId,
+    /// Unit direction from the trunk's axis toward the body on the trunk,
+    /// perpendicular to the axis; chosen once when the transfer starts.
+    pub side: Vec3,
+    /// Unit direction from the trunk's axis toward the branch, perpendicular to the axis.
+    pub away: Vec3,
+}
 
 /// Shared read-only inputs of the kernels.
 #[derive(Clone, Copy)]
@@ -238,6 +267,8 @@ pub struct Sloth {
     pub turns: u32,
     /// Turn-backs since the last step taken (wander mode).
     pub stalled_turns: u8,
+    /// Branch ↔ trunk transfer in progress, if any.
+    pub transfer: Option<Transfer>,
 }
 
 /// Serde for [`ChainPose`] (four quaternions, bit-exact through serde's f32).
@@ -376,13 +407,27 @@ fn trunk_blend(w: &World<'_>, a: SupportId, b: SupportId, t: f32) -> f32 {
     ka + (kb - ka) * smoothstep(t)
 }
 
+/// Formula 7's offset of the body below the paws, and the share of limbs on
+/// a trunk it was blended by (a branch ↔ trunk transfer also rolls the body
+/// by that share: see [`Sloth::body_frame`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct BodyOffset {
+    /// Metres below the mean of the paws.
+    metres: f32,
+    /// Share of limbs on a trunk, 0..1.
+    trunk_share: f32,
+}
+
 /// Formula 7's offset of the body below the paws for limbs with trunk
 /// weights `weights`: the branch offset, blended toward the trunk offset by
 /// the share of limbs on a trunk.
-fn body_offset(w: &World<'_>, weights: [f32; 4]) -> f32 {
+fn body_offset(w: &World<'_>, weights: [f32; 4]) -> BodyOffset {
     let trunk = w.cfg.trunk_body_offset_m.unwrap_or(w.body_offset);
     let share = weights.iter().sum::<f32>() * 0.25;
-    w.body_offset + (trunk - w.body_offset) * share
+    BodyOffset {
+        metres: w.body_offset + (trunk - w.body_offset) * share,
+        trunk_share: share,
+    }
 }
 
 /// Swing progress points at which a step's transient stance is checked.
@@ -556,6 +601,7 @@ impl Sloth {
             seed: 0,
             turns: 0,
             stalled_turns: 0,
+            transfer: None,
         };
         // Settle the stance: a few rounds of (body from grips; each grip slid
         // along the support to where its limb reaches it best, searched in
@@ -619,12 +665,25 @@ impl Sloth {
         sloth
     }
 
+    /// Whether all four limbs hold support `sid` (none swinging).
+    fn holds_only(&self, sid: SupportId) -> bool {
+        self.limbs
+            .iter()
+            .all(|l| l.phase != LimbPhase::Swinging && l.grip.support == sid)
+    }
+
     fn targets(&self) -> [Vec3; 4] {
         self.limbs.map(|l| l.target)
     }
 
-    /// Body frame toward the support the fore limbs hold (formula 6 gives forward).
-    fn body_frame(&self, w: &World<'_>, t: &[Vec3; 4]) -> (Vec3, Vec3) {
+    /// Body frame toward the support the fore limbs hold (formula 6 gives
+    /// forward). During a branch ↔ trunk transfer the body's up (toward the
+    /// support) is blended by `trunk_share` (the share of limbs on a trunk)
+    /// from world up (hanging below the branch) to facing the trunk from the
+    /// transfer's side: a roll about the long axis in one direction, chosen
+    /// when the transfer started, so it never passes through the degenerate
+    /// "up toward the trunk along forward" of a body facing the trunk.
+    fn body_frame(&self, w: &World<'_>, t: &[Vec3; 4], trunk_share: f32) -> (Vec3, Vec3) {
         let (lf, rf, lh, rh) = (
             t[Limb::LF.index()],
             t[Limb::RF.index()],
@@ -639,7 +698,13 @@ impl Sloth {
         let s = w.scene().support(fore_support);
         let on_trunk = s.kind == SupportKind::Trunk
             && self.limbs[Limb::RF.index()].grip.support == fore_support;
-        let up = if on_trunk {
+        let up = if let Some(tr) = self.transfer {
+            // Rolled by a power of the share (the roll leads the limbs a
+            // little), and pushed off the trunk mid-transfer so the body
+            // clears it while the hind limbs are still on the branch.
+            let r = trunk_share.powf(TRANSFER_ROLL_POWER);
+            Vec3::Y * (1.0 - r) - tr.side * r - tr.away * (TRANSFER_AWAY * 4.0 * r * (1.0 - r))
+        } else if on_trunk {
             let a = project(s, mean);
             let body_side = self.body_pos - a.point;
             -(body_side - fwd * fwd.dot(body_side)).normalize_or(self.body_rot * Vec3::Y * -1.0)
@@ -656,10 +721,10 @@ impl Sloth {
         self.body_for_targets(w, &self.targets(), offset)
     }
 
-    fn body_for_targets(&self, w: &World<'_>, t: &[Vec3; 4], offset: f32) -> (Vec3, Quat) {
-        let (f, up) = self.body_frame(w, t);
+    fn body_for_targets(&self, w: &World<'_>, t: &[Vec3; 4], offset: BodyOffset) -> (Vec3, Quat) {
+        let (f, up) = self.body_frame(w, t, offset.trunk_share);
         let mean = (t[0] + t[1] + t[2] + t[3]) * 0.25;
-        (mean - up * offset, rotation_from(f, up))
+        (mean - up * offset.metres, rotation_from(f, up))
     }
 
     /// How much each limb is on a trunk (1) or a branch (0); a swinging limb
@@ -1011,6 +1076,11 @@ impl Sloth {
             if !self.leads(limb) && (!lead_supports.contains(&sid) || lead_on_cur) {
                 continue;
             }
+            // A branch ↔ trunk change: the transfer (and its side) is set up
+            // first, as the search on the new support depends on it.
+            if scene.support(sid).kind != scene.support(cur.support).kind {
+                self.begin_transfer(w, li, cur.support, sid);
+            }
             if let Some(search) = self.neighbour_search(w, li, sid, k as u16) {
                 self.limbs[li].search = search;
                 return true;
@@ -1020,14 +1090,109 @@ impl Sloth {
         false
     }
 
+    /// Starts a branch ↔ trunk transfer from `from` onto `to` (unless one is
+    /// under way: a limb holds its target) and picks, once, the side of the
+    /// trunk the body faces it from. Onto a trunk: beside the branch (the head is eased
+    /// sideways away from it), on the side the body leans to, else on a side
+    /// of this sloth's own; off a trunk: the side the body is on.
+    fn begin_transfer(&mut self, w: &World<'_>, li: usize, from: SupportId, to: SupportId) {
+        if self
+            .transfer
+            .is_some_and(|t| self.limbs.iter().any(|l| l.grip.support == t.to))
+        {
+            return;
+        }
+        let scene = w.scene();
+        let onto_trunk = scene.support(to).kind == SupportKind::Trunk;
+        let (trunk, branch) = if onto_trunk { (to, from) } else { (from, to) };
+        let a = project(scene.support(trunk), self.body_pos);
+        let off_axis = self.body_pos - a.point;
+        let off_axis = off_axis - a.tangent * a.tangent.dot(off_axis);
+        let fallback = a.tangent.any_orthonormal_vector();
+        let bp = project(scene.support(branch), self.body_pos);
+        let away = bp.point - a.point;
+        let away = (away - a.tangent * a.tangent.dot(away)).normalize_or(fallback);
+        let side = if onto_trunk {
+            let b = bp.tangent;
+            let n = a.tangent.cross(b).normalize_or(fallback);
+            // Toward the side of the limb that starts the transfer: it takes
+            // the trunk next to the branch, its pair reaches around.
+            let model_side = if Limb::ALL[li].is_left() {
+                Vec3::X
+            } else {
+                Vec3::NEG_X
+            };
+            let nn = if n.dot(self.body_rot * model_side) >= 0.0 {
+                n
+            } else {
+                -n
+            };
+            let n2 = (nn - a.tangent * a.tangent.dot(nn)).normalize_or(fallback);
+            (away * TRANSFER_SIDE_ANGLE.cos() + n2 * TRANSFER_SIDE_ANGLE.sin())
+                .normalize_or(fallback)
+        } else {
+            off_axis.normalize_or(fallback)
+        };
+        self.transfer = Some(Transfer {
+            to,
+            trunk,
+            side,
+            away,
+        });
+    }
+
+    /// Ends the transfer once all four limbs hold its target support (or
+    /// when no limb holds it nor searches any more: it was not taken). On a
+    /// trunk the body faces up (head up); the travel turns toward the goal:
+    /// tail first when it is below.
+    fn finish_transfer(&mut self, w: &World<'_>) {
+        let Some(tr) = self.transfer else { return };
+        if self
+            .limbs
+            .iter()
+            .all(|l| l.phase == LimbPhase::Planted && l.grip.support != tr.to)
+        {
+            self.transfer = None;
+            return;
+        }
+        if !self
+            .limbs
+            .iter()
+            .all(|l| l.phase == LimbPhase::Planted && l.grip.support == tr.to)
+        {
+            return;
+        }
+        self.transfer = None;
+        let s = w.scene().support(tr.to);
+        if s.kind != SupportKind::Trunk {
+            return;
+        }
+        let here = project(s, self.body_pos);
+        let up_u = if here.tangent.y >= 0.0 { 1.0 } else { -1.0 };
+        let dir = match self.goal {
+            Some((gs, gp)) if gs == tr.to => {
+                if (project(s, gp).u - here.u) * up_u >= 0.0 {
+                    1.0
+                } else {
+                    -1.0
+                }
+            }
+            _ => 1.0,
+        };
+        self.dir = dir;
+        for l in &mut self.limbs {
+            l.grip.sdir = dir * up_u;
+        }
+    }
+
     /// The candidate range of limb `li` on neighbour support `sid`, if its
-    /// axis comes within reach of the limb's root.
+    /// surface comes within reach of the limb's root.
     fn neighbour_search(&self, w: &World<'_>, li: usize, sid: SupportId, k: u16) -> Option<Search> {
         let s2 = w.scene().support(sid);
         let cur = self.limbs[li].grip;
         let root = self.limbs[li].root;
         let entry = project(s2, (cur.point + root) * 0.5);
-        if entry.point.distance(root) > w.rig.reach {
+        if entry.point.distance(root) - entry.radius > w.rig.reach {
             return None;
         }
         let sdir = self.choose_sdir(w, sid, entry.tangent);
@@ -1120,6 +1285,13 @@ impl Sloth {
     /// that continues the current travel.
     fn choose_sdir(&self, w: &World<'_>, sid: SupportId, tangent: Vec3) -> f32 {
         let s = w.scene().support(sid);
+        // Onto a trunk only head up: the limbs climb it until all four are across.
+        if self
+            .transfer
+            .is_some_and(|t| t.to == sid && s.kind == SupportKind::Trunk)
+        {
+            return if tangent.y >= 0.0 { 1.0 } else { -1.0 };
+        }
         if let Some((gs, gp)) = self.goal {
             let g = project(s, gp);
             let here = project(s, self.body_pos);
@@ -1151,13 +1323,24 @@ impl Sloth {
         let limb = Limb::ALL[li];
         let s = w.scene().support(sid);
         let a = axis_at(s, u);
-        let body_side = self.body_pos - a.point;
+        // A transfer onto this trunk: the grips sit around the side the body will face it from.
+        let transfer = self.transfer.filter(|t| t.to == sid);
+        let body_side = match transfer {
+            Some(t) if t.trunk == sid => t.side,
+            _ => self.body_pos - a.point,
+        };
+        let transfer_step = transfer.is_some() && sid != self.limbs[li].grip.support;
         // Body forward is the travel direction × dir (tail first when dir < 0).
         let (f, up) = support_frame(s.kind, a.tangent * (sdir * self.dir), a.tangent, body_side);
         let out = grip_out(s.kind, limb, f, up, w.cfg.trunk_grip_angle_deg.to_radians());
         let approx = a.point + out * a.radius;
         let cur = self.limbs[li].grip.point;
-        let travel = self.travel();
+        // On the trunk being transferred to, steps go up its axis (head up)
+        // whichever way the body still faces.
+        let travel = match transfer {
+            Some(t) if t.trunk == sid && !transfer_step => a.tangent * sdir,
+            _ => self.travel(),
+        };
         let body_fwd = self.body_rot * Vec3::Z;
         // Step length (along the travel direction) within [min, max].
         let step = (approx - cur).dot(travel);
@@ -1172,9 +1355,15 @@ impl Sloth {
         let step_ok = if retreat {
             step <= -w.cfg.min_step_m
         } else {
-            step >= min_step
+            // A transfer step goes where the other support is (reach decides).
+            transfer_step || step >= min_step
         };
-        if !step_ok || dist > w.cfg.max_step_m {
+        let max_step = if transfer_step {
+            w.cfg.max_step_m * TRANSFER_STEP_FACTOR
+        } else {
+            w.cfg.max_step_m
+        };
+        if !step_ok || dist > max_step {
             return None;
         }
         // Leg order: hind never ahead of a fore limb; never behind the opposite limb of the girdle.
@@ -1186,8 +1375,23 @@ impl Sloth {
         }
         let opp = self.limbs[limb.opposite().index()].grip.point;
         let lead = (approx - opp).dot(travel);
-        if !(0.0..=MAX_GIRDLE_LEAD * w.cfg.max_step_m).contains(&lead) {
+        if !transfer_step && !(0.0..=MAX_GIRDLE_LEAD * w.cfg.max_step_m).contains(&lead) {
             return None;
+        }
+        // Onto a trunk head up: a fore limb takes it above the hind limbs.
+        if transfer_step && limb.is_fore() && s.kind == SupportKind::Trunk {
+            let axis_up = if a.tangent.y >= 0.0 {
+                a.tangent
+            } else {
+                -a.tangent
+            };
+            let hind_top = [Limb::LH, Limb::RH]
+                .map(|h| self.limbs[h.index()].grip.point.dot(axis_up))
+                .into_iter()
+                .fold(f32::NEG_INFINITY, f32::max);
+            if approx.dot(axis_up) < hind_top + HEAD_UP_MARGIN {
+                return None;
+            }
         }
         // Keep clear of other sloths' bodies and grips.
         if w.crowd.is_some_and(|g| g.blocked(self.id, approx)) {
@@ -1246,8 +1450,10 @@ impl Sloth {
         // touch-down), but follows a slow, continuous turn exactly: any lag
         // turns the hips away from the stance the step checks approved (a
         // 0.6° lag moved a hind claw 4 mm off its grip in a 2,000-sloth run).
+        // Not at all during a branch ↔ trunk transfer: the roll is continuous
+        // already, and lagging it would pull planted limbs off their grips.
         let (pos, rot) = self.averaged_body(w);
-        let k = if w.cfg.body_smoothing_s > 0.0 {
+        let k = if w.cfg.body_smoothing_s > 0.0 && self.transfer.is_none() {
             let smooth = 1.0 - (-dt / w.cfg.body_smoothing_s).exp();
             let angle = self.body_rot.angle_between(rot);
             let free = BODY_FREE_TURN_RATE * dt;
@@ -1317,7 +1523,9 @@ impl Sloth {
         if let Some((gs, gp)) = self.goal {
             let s = w.scene().support(gs);
             let a = project(s, self.body_pos);
-            if a.point.distance(gp) <= self.goal_tolerance && a.point.distance(self.body_pos) < 0.6
+            if self.holds_only(gs)
+                && a.point.distance(gp) <= self.goal_tolerance
+                && a.point.distance(self.body_pos) < 0.6
             {
                 self.status = Status::Arrived;
             }
@@ -1325,6 +1533,7 @@ impl Sloth {
         if self.status != Status::Moving {
             return;
         }
+        self.finish_transfer(w);
         let prev = self.clock;
         self.clock = (self.clock + dt / w.cfg.cycle_duration()).fract();
         let offsets = w.cfg.phase_offsets();
@@ -1403,10 +1612,13 @@ impl Sloth {
                 penetration = penetration.max(torso_penetration(scene.support(id), torso));
             }
         }
+        // Until all four limbs hold the goal's support (e.g. still under a
+        // branch that passes near the goal on a trunk) the distance is the
+        // body's straight distance to the goal point.
         let goal_distance_m = match self.goal {
             Some((gs, gp)) => {
                 let a = project(scene.support(gs), self.body_pos);
-                if a.point.distance(self.body_pos) < 0.6 {
+                if self.holds_only(gs) && a.point.distance(self.body_pos) < 0.6 {
                     a.point.distance(gp)
                 } else {
                     self.body_pos.distance(gp)
