@@ -1,9 +1,12 @@
 //! Fixed-work timing loop for `perf stat` / `valgrind --tool=cachegrind` (instruction
 //! counts are robust to a loaded box):
-//! `cargo run --release -p slothsim-rig --example ik_cycles -- warm|cold|warm4|cold4 [solves]`.
-//! The `…4` modes solve the four limbs together with `solve4` (`solves` counts limbs).
+//! `cargo run --release -p slothsim-rig --example ik_cycles -- warm|cold|warm4|cold4|warm4u|cold4u [solves]`.
+//! The `…4` modes solve the four limbs together with `solve4_prepared` (`…4u`: `solve4`,
+//! chains transposed on every call); `solves` counts limbs.
 use glam::{Quat, Vec3};
-use slothsim_rig::{CcdParams, ChainPose, Rig, RootTransform, solve, solve4};
+use slothsim_rig::{
+    CcdParams, ChainPose, LimbChains4, Rig, RootTransform, solve, solve4, solve4_prepared,
+};
 
 fn rnd(state: &mut u64) -> f32 {
     *state ^= *state << 13;
@@ -42,9 +45,10 @@ fn main() {
     let mut poses = [ChainPose::NEUTRAL; 4];
     let t0 = std::time::Instant::now();
     let mut sweeps = 0u64;
-    if mode.ends_with('4') {
+    if mode.contains('4') {
         let chains = rig.chains();
         let chains = [&chains[0], &chains[1], &chains[2], &chains[3]];
+        let prepared = LimbChains4::new(chains);
         for k in 0..n / 4 {
             let targets: [Vec3; 4] = std::array::from_fn(|limb| {
                 let path = &paths[limb];
@@ -55,16 +59,15 @@ fn main() {
                     2 * path.len() - 2 - i
                 }]
             });
-            if mode == "cold4" {
+            if mode.starts_with("cold") {
                 poses = [ChainPose::NEUTRAL; 4];
             }
-            let r = solve4(
-                chains,
-                [root; 4],
-                std::hint::black_box(targets),
-                &mut poses,
-                &params,
-            );
+            let targets = std::hint::black_box(targets);
+            let r = if mode.ends_with('u') {
+                solve4(chains, [root; 4], targets, &mut poses, &params)
+            } else {
+                solve4_prepared(&prepared, [root; 4], targets, &mut poses, &params)
+            };
             sweeps += r.iter().map(|r| u64::from(r.iterations)).sum::<u64>();
         }
         let dt = t0.elapsed();

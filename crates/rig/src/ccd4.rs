@@ -74,7 +74,7 @@ fn msel(m: M, a: M, b: M) -> M {
 }
 
 /// Four 3-vectors, one per lane.
-#[derive(Clone, Copy)]
+#[derive(Clone, Copy, Debug)]
 struct V {
     x: F,
     y: F,
@@ -168,7 +168,7 @@ impl V {
 }
 
 /// Four quaternions, one per lane.
-#[derive(Clone, Copy)]
+#[derive(Clone, Copy, Debug)]
 struct Q {
     x: F,
     y: F,
@@ -280,13 +280,14 @@ impl Q {
 }
 
 /// Half-angle range of a hinge or twist limit: `(cos, sin)` of `min/2` and `max/2`.
-#[derive(Clone, Copy)]
+#[derive(Clone, Copy, Debug)]
 struct Range4 {
     lo: (F, F),
     hi: (F, F),
 }
 
 /// The four chains, transposed, with their limits' half-angle trigonometry.
+#[derive(Clone, Debug)]
 struct Chains4 {
     offsets: [V; CHAIN_JOINTS],
     rest: [Q; CHAIN_JOINTS],
@@ -858,9 +859,45 @@ fn hinge_turn_step(
     (new, ok & changed, clamped)
 }
 
+/// Four limb chains prepared for [`solve4_prepared`]: copies of the chains plus their
+/// transposed (one chain per SIMD lane) constants and limit trigonometry, computed
+/// once here instead of on every [`solve4`] call. It owns its copies, so it can never
+/// go stale; a caller that changes a chain builds a new one.
+#[derive(Clone, Debug)]
+pub struct LimbChains4 {
+    chains: [LimbChain; 4],
+    /// `None` when the chains do not have the layout the vector path handles.
+    soa: Option<Chains4>,
+}
+
+impl LimbChains4 {
+    /// Prepare four chains (lane `i` = `chains[i]`).
+    pub fn new(chains: [&LimbChain; 4]) -> Self {
+        Self {
+            chains: chains.map(|c| *c),
+            soa: Chains4::new(chains),
+        }
+    }
+
+    /// The chains, lane by lane.
+    pub fn chains(&self) -> &[LimbChain; 4] {
+        &self.chains
+    }
+}
+
+/// Where [`solve4_impl`] gets the transposed chains.
+#[derive(Clone, Copy)]
+enum Layout<'a> {
+    /// Already prepared (`None`: not the sloth layout, scalar solves).
+    Prepared(Option<&'a Chains4>),
+    /// Build them now.
+    Build,
+}
+
 /// Solve four limb chains at once (one per SIMD lane; see the module docs). Each lane
 /// is exactly `solve(chains[i], roots[i], targets[i], &mut poses[i], params)`: same
-/// poses, same results, bit for bit.
+/// poses, same results, bit for bit. Per call it transposes the chains and evaluates
+/// their limit trigonometry; [`solve4_prepared`] does that once.
 pub fn solve4(
     chains: [&LimbChain; 4],
     roots: [RootTransform; 4],
@@ -871,9 +908,29 @@ pub fn solve4(
     #[cfg(target_arch = "x86_64")]
     if std::arch::is_x86_feature_detected!("avx2") {
         // SAFETY: the CPU has AVX2 (checked just above).
-        return unsafe { solve4_avx2(chains, roots, targets, poses, params) };
+        return unsafe { solve4_avx2(chains, Layout::Build, roots, targets, poses, params) };
     }
-    solve4_impl(chains, roots, targets, poses, params)
+    solve4_impl(chains, Layout::Build, roots, targets, poses, params)
+}
+
+/// [`solve4`] on prepared chains (lane `i` = `chains.chains()[i]`); bit-identical to
+/// [`crate::ccd::solve`] lane by lane as well.
+pub fn solve4_prepared(
+    chains: &LimbChains4,
+    roots: [RootTransform; 4],
+    targets: [Vec3; 4],
+    poses: &mut [ChainPose; 4],
+    params: &CcdParams,
+) -> [CcdResult; 4] {
+    let c = &chains.chains;
+    let refs = [&c[0], &c[1], &c[2], &c[3]];
+    let layout = Layout::Prepared(chains.soa.as_ref());
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        // SAFETY: the CPU has AVX2 (checked just above).
+        return unsafe { solve4_avx2(refs, layout, roots, targets, poses, params) };
+    }
+    solve4_impl(refs, layout, roots, targets, poses, params)
 }
 
 /// [`solve4_impl`] compiled with AVX2 (VEX encoding; same IEEE operations).
@@ -881,17 +938,19 @@ pub fn solve4(
 #[target_feature(enable = "avx2")]
 fn solve4_avx2(
     chains: [&LimbChain; 4],
+    layout: Layout<'_>,
     roots: [RootTransform; 4],
     targets: [Vec3; 4],
     poses: &mut [ChainPose; 4],
     params: &CcdParams,
 ) -> [CcdResult; 4] {
-    solve4_impl(chains, roots, targets, poses, params)
+    solve4_impl(chains, layout, roots, targets, poses, params)
 }
 
 #[inline(always)]
 fn solve4_impl(
     chains: [&LimbChain; 4],
+    layout: Layout<'_>,
     roots: [RootTransform; 4],
     targets: [Vec3; 4],
     poses: &mut [ChainPose; 4],
@@ -913,19 +972,35 @@ fn solve4_impl(
             local[i] = root.inverse_transform_point(targets[i].into());
         }
     }
-    let layout = if valid == [true; 4] && params.order == CcdOrder::TailFirst && params.reach_step {
-        Chains4::new(chains)
-    } else {
-        None
-    };
-    let Some(c) = layout else {
-        for i in 0..4 {
-            if valid[i] {
-                results[i] = solve_local_dispatch(chains[i], local[i], &mut poses[i], params);
+    if valid == [true; 4] && params.order == CcdOrder::TailFirst && params.reach_step {
+        match layout {
+            Layout::Prepared(Some(c)) => return run4(chains, c, &local, poses, params),
+            Layout::Prepared(None) => {}
+            Layout::Build => {
+                if let Some(c) = Chains4::new(chains) {
+                    return run4(chains, &c, &local, poses, params);
+                }
             }
         }
-        return results;
-    };
+    }
+    for i in 0..4 {
+        if valid[i] {
+            results[i] = solve_local_dispatch(chains[i], local[i], &mut poses[i], params);
+        }
+    }
+    results
+}
+
+/// The vector path for four valid lanes, then the scalar solver for the lanes that
+/// left it.
+#[inline(always)]
+fn run4(
+    chains: [&LimbChain; 4],
+    c: &Chains4,
+    local: &[Vec3A; 4],
+    poses: &mut [ChainPose; 4],
+    params: &CcdParams,
+) -> [CcdResult; 4] {
     let start = *poses;
     let [p0, p1, p2, p3] = &start;
     let mut pose = [Q::IDENTITY; CHAIN_JOINTS];
@@ -933,7 +1008,7 @@ fn solve4_impl(
         pose[j] = Q::gather(p0.0[j], p1.0[j], p2.0[j], p3.0[j]);
     }
     let target = V::gather(local[0], local[1], local[2], local[3]);
-    let (scalar, iterations, err_sq) = sweeps4(&c, target, &mut pose, params);
+    let (scalar, iterations, err_sq) = sweeps4(c, target, &mut pose, params);
     let error = sqrt(err_sq);
     for j in 0..CHAIN_JOINTS {
         let q = pose[j].scatter();
@@ -941,6 +1016,7 @@ fn solve4_impl(
             poses[i].0[j] = q[i];
         }
     }
+    let mut results = [CcdResult::rejected(CcdStatus::InvalidTarget); 4];
     for i in 0..4 {
         if scalar.test(i) {
             #[cfg(test)]
@@ -1008,7 +1084,13 @@ mod tests {
         b: &mut [ChainPose; 4],
         params: &CcdParams,
     ) {
+        let mut a2 = *a;
         let r4 = solve4(chains, roots, targets, a, params);
+        let prepared = LimbChains4::new(chains);
+        let r4p = solve4_prepared(&prepared, roots, targets, &mut a2, params);
+        for i in 0..4 {
+            assert!(same(&r4[i], &r4p[i]) && bits(&a[i]) == bits(&a2[i]));
+        }
         for i in 0..4 {
             let r = crate::solve(chains[i], roots[i], targets[i], &mut b[i], params);
             assert!(
