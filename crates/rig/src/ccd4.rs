@@ -1004,16 +1004,15 @@ fn run4(
     let start = *poses;
     let [p0, p1, p2, p3] = &start;
     let mut pose = [Q::IDENTITY; CHAIN_JOINTS];
-    for j in 0..CHAIN_JOINTS {
-        pose[j] = Q::gather(p0.0[j], p1.0[j], p2.0[j], p3.0[j]);
+    for (j, q) in pose.iter_mut().enumerate() {
+        *q = Q::gather(p0.0[j], p1.0[j], p2.0[j], p3.0[j]);
     }
     let target = V::gather(local[0], local[1], local[2], local[3]);
     let (scalar, iterations, err_sq) = sweeps4(c, target, &mut pose, params);
     let error = sqrt(err_sq);
-    for j in 0..CHAIN_JOINTS {
-        let q = pose[j].scatter();
-        for i in 0..4 {
-            poses[i].0[j] = q[i];
+    for (j, q) in pose.iter().enumerate() {
+        for (p, q) in poses.iter_mut().zip(q.scatter()) {
+            p.0[j] = q;
         }
     }
     let mut results = [CcdResult::rejected(CcdStatus::InvalidTarget); 4];
