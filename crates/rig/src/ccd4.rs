@@ -61,10 +61,12 @@ fn recip(x: F) -> F {
     F::ONE / x
 }
 
-/// `x.clamp(-1.0, 1.0)` lane-wise (same as `f32::clamp` for non-NaN `x`).
+/// `x.clamp(-1.0, 1.0)` lane-wise, as `f32::clamp` (NaN stays NaN, unlike
+/// `Vec4::clamp`).
 #[inline(always)]
 fn clamp1(x: F) -> F {
-    x.max(splat(-1.0)).min(F::ONE)
+    let x = sel(x.cmplt(splat(-1.0)), splat(-1.0), x);
+    sel(x.cmpgt(F::ONE), F::ONE, x)
 }
 
 /// `(a == b) ? c : d` on masks.
@@ -817,7 +819,9 @@ fn sweeps4(c: &Chains4, target: V, pose: &mut [Q; CHAIN_JOINTS], params: &CcdPar
         // `max_joint_cos_half`: the smallest `|start_j · pose_j|` (dot4 as glam's).
         let mut cos_half = F::ONE;
         for j in 0..CHAIN_JOINTS {
-            cos_half = cos_half.min(start[j].dot(pose[j]).abs());
+            // `minps` returns its second operand when one is NaN: as `f32::min`, a
+            // NaN dot product leaves the running minimum alone.
+            cos_half = start[j].dot(pose[j]).abs().min(cos_half);
         }
         let retry = lanes.iterations.cmpgt(F::ZERO)
             & start_err.cmple(splat(SMOOTH_TRIGGER_DIST))
@@ -1186,6 +1190,36 @@ mod tests {
         let scalar = SCALAR_LANES.with(|n| n.get());
         let reasons = REASONS.with(|r| r.get());
         println!("warm: {scalar} of {solves} lanes went to the scalar solver: {reasons:?}");
+    }
+
+    /// Far and huge (but finite) targets: squares overflow to infinity and NaNs appear
+    /// inside the steps; the lanes must still follow the scalar solver exactly.
+    #[test]
+    fn extreme_targets_match_scalar_bit_for_bit() {
+        let rig = Rig::sloth();
+        let chains: [&LimbChain; 4] = std::array::from_fn(|i| &rig.chains()[i]);
+        let mut s = 0xfa7_u64;
+        for scale in [1e3f32, 1e6, 1e18, 1e19, 1e20, 3e38] {
+            for _ in 0..50 {
+                let roots: [RootTransform; 4] = std::array::from_fn(|_| root(&mut s));
+                let targets: [Vec3; 4] = std::array::from_fn(|_| {
+                    Vec3::new(rnd(&mut s) - 0.5, rnd(&mut s) - 0.5, rnd(&mut s) - 0.5) * scale
+                });
+                let mut a: [ChainPose; 4] = std::array::from_fn(|i| {
+                    let u: [f32; 12] = std::array::from_fn(|_| rnd(&mut s));
+                    chains[i].sample_pose(&u)
+                });
+                let mut b = a;
+                check(
+                    chains,
+                    roots,
+                    targets,
+                    &mut a,
+                    &mut b,
+                    &CcdParams::default(),
+                );
+            }
+        }
     }
 
     /// Bad input per lane: that lane is rejected (pose untouched), the others solve.
