@@ -2,14 +2,20 @@
 //! (previous frame's pose, target moving ~2 mm per frame: the realistic case).
 //! Also prints the mean number of CCD sweeps for both.
 //!
+//! `*_solve4` cases solve an animal's four limbs together (`solve4_prepared`, one limb
+//! per SIMD lane) and report time per limb (each call's time divided by 4); before
+//! timing, every solve4 result and pose is checked bit for bit against `solve`.
+//!
 //! `cargo bench --bench ik`
 
 use std::hint::black_box;
+use std::time::{Duration, Instant};
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use glam::{Quat, Vec3};
 use slothsim_rig::{
-    CcdParams, ChainPose, FabrikParams, LimbChain, Rig, RootTransform, fabrik, solve,
+    CcdParams, CcdResult, ChainPose, FabrikParams, LimbChain, LimbChains4, Rig, RootTransform,
+    fabrik, solve, solve4_prepared,
 };
 
 /// Deterministic xorshift in [0, 1).
@@ -104,6 +110,50 @@ fn run_warm(chains: &[LimbChain; 4], paths: &[Vec<Vec3>; 4], params: &CcdParams)
     st
 }
 
+fn same(a: &CcdResult, b: &CcdResult, pa: &ChainPose, pb: &ChainPose) -> bool {
+    let bits = |p: &ChainPose| p.0.map(|q| q.to_array().map(f32::to_bits));
+    a.reached == b.reached
+        && a.error.to_bits() == b.error.to_bits()
+        && a.iterations == b.iterations
+        && a.status == b.status
+        && bits(pa) == bits(pb)
+}
+
+/// Replay the cold targets and warm paths with `solve4_prepared` and `solve` side by
+/// side; panics on the first difference. Returns the number of limb solves compared.
+fn check_solve4(
+    chains: &[LimbChain; 4],
+    prepared: &LimbChains4,
+    cold: &[Vec<Vec3>; 4],
+    warm: &[Vec<Vec3>; 4],
+    params: &CcdParams,
+) -> usize {
+    let mut n = 0;
+    let mut compare = |targets: [Vec3; 4], a: &mut [ChainPose; 4], b: &mut [ChainPose; 4]| {
+        let r4 = solve4_prepared(prepared, [root(); 4], targets, a, params);
+        for i in 0..4 {
+            let r = solve(&chains[i], root(), targets[i], &mut b[i], params);
+            assert!(same(&r4[i], &r, &a[i], &b[i]), "solve4 differs from solve");
+        }
+        n += 4;
+    };
+    for k in 0..cold[0].len() {
+        let targets = std::array::from_fn(|i| cold[i][k % cold[i].len()]);
+        compare(
+            targets,
+            &mut [ChainPose::NEUTRAL; 4],
+            &mut [ChainPose::NEUTRAL; 4],
+        );
+    }
+    let (mut a, mut b) = ([ChainPose::NEUTRAL; 4], [ChainPose::NEUTRAL; 4]);
+    let frames = warm.iter().map(Vec::len).max().unwrap_or(0);
+    for f in 0..frames {
+        let targets = std::array::from_fn(|i| warm[i][f % warm[i].len()]);
+        compare(targets, &mut a, &mut b);
+    }
+    n
+}
+
 fn report(name: &str, st: &Stats) {
     println!(
         "ik/{name}: mean CCD sweeps {:.2}, reached (FK, 1 mm) {:.2} % of {} solves",
@@ -122,6 +172,9 @@ fn bench_ik(c: &mut Criterion) {
     let warm: [Vec<Vec3>; 4] = std::array::from_fn(|i| warm_path(&chains[i], 2e-3, 101 + i as u64));
     report("cold", &run_cold(&chains, &cold, &params));
     report("warm_2mm", &run_warm(&chains, &warm, &params));
+    let prepared = LimbChains4::new([&chains[0], &chains[1], &chains[2], &chains[3]]);
+    let compared = check_solve4(&chains, &prepared, &cold, &warm, &params);
+    println!("ik/solve4: bit-identical to solve on {compared} limb solves (cold + warm_2mm)");
 
     let mut group = c.benchmark_group("ik");
     group.bench_function("cold_limb_solve", |b| {
@@ -161,6 +214,50 @@ fn bench_ik(c: &mut Criterion) {
                 &mut poses[limb],
                 &params,
             ))
+        })
+    });
+    group.bench_function("cold_limb_solve4", |b| {
+        let mut k = 0usize;
+        b.iter_custom(|iters| {
+            let t0 = Instant::now();
+            for _ in 0..iters {
+                let targets: [Vec3; 4] = std::array::from_fn(|i| cold[i][k % cold[i].len()]);
+                k += 1;
+                let mut poses = [ChainPose::NEUTRAL; 4];
+                black_box(solve4_prepared(
+                    &prepared,
+                    [root(); 4],
+                    black_box(targets),
+                    &mut poses,
+                    &params,
+                ));
+                black_box(&poses);
+            }
+            // One iteration solves four limbs: report per limb.
+            t0.elapsed() / 4
+        })
+    });
+    group.bench_function("warm_2mm_limb_solve4", |b| {
+        let mut poses = [ChainPose::NEUTRAL; 4];
+        for (i, pose) in poses.iter_mut().enumerate() {
+            solve(&chains[i], root(), warm[i][0], pose, &params);
+        }
+        let mut frame = 1usize;
+        b.iter_custom(|iters| {
+            let t0 = Instant::now();
+            for _ in 0..iters {
+                let targets: [Vec3; 4] = std::array::from_fn(|i| warm[i][frame % warm[i].len()]);
+                frame += 1;
+                black_box(solve4_prepared(
+                    &prepared,
+                    [root(); 4],
+                    black_box(targets),
+                    &mut poses,
+                    &params,
+                ));
+            }
+            let per_limb: Duration = t0.elapsed() / 4;
+            per_limb
         })
     });
     let fparams = FabrikParams::default();

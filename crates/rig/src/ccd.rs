@@ -152,7 +152,7 @@ pub struct CcdResult {
 }
 
 impl CcdResult {
-    fn rejected(status: CcdStatus) -> Self {
+    pub(crate) fn rejected(status: CcdStatus) -> Self {
         Self {
             reached: false,
             error: f32::NAN,
@@ -251,6 +251,18 @@ pub fn solve(
         *pose = ChainPose::NEUTRAL;
     }
     let target = root.inverse_transform_point(target_ws.into());
+    solve_local_dispatch(chain, target, pose, params)
+}
+
+/// [`solve_local`], the AVX2 build where the CPU has it (params already validated,
+/// target in the chain-root frame, pose finite).
+#[inline(always)]
+pub(crate) fn solve_local_dispatch(
+    chain: &LimbChain,
+    target: Vec3A,
+    pose: &mut ChainPose,
+    params: &CcdParams,
+) -> CcdResult {
     #[cfg(target_arch = "x86_64")]
     if std::arch::is_x86_feature_detected!("avx2") {
         // SAFETY: the CPU has AVX2 (checked just above).
@@ -309,11 +321,11 @@ pub const SMOOTH_TRIGGER_DIST: f32 = 0.02;
 /// Joint change per solve (radians) above which a tracking solve is redone smoothly.
 pub const SMOOTH_JOINT_STEP: f32 = 0.1;
 /// `cos(SMOOTH_JOINT_STEP / 2)`.
-const SMOOTH_COS_HALF: f32 = 0.998_750_26;
+pub(crate) const SMOOTH_COS_HALF: f32 = 0.998_750_26;
 
 /// Smallest `|a_i · b_i|` over the joints: the cosine of half the largest joint change.
 #[inline(always)]
-fn max_joint_cos_half(a: &ChainPose, b: &ChainPose) -> f32 {
+pub(crate) fn max_joint_cos_half(a: &ChainPose, b: &ChainPose) -> f32 {
     (0..CHAIN_JOINTS)
         .map(|i| a.0[i].dot(b.0[i]).abs())
         .fold(1.0, f32::min)
@@ -504,15 +516,15 @@ fn polish(
 }
 
 /// The per-step rotation cap as cos (full angle) and cos/sin (half angle): no trig in the steps.
-struct StepCap {
-    cos: f32,
-    cos_half: f32,
-    sin_half: f32,
+pub(crate) struct StepCap {
+    pub(crate) cos: f32,
+    pub(crate) cos_half: f32,
+    pub(crate) sin_half: f32,
 }
 
 impl StepCap {
     #[inline(always)]
-    fn new(max_angle: f32) -> Self {
+    pub(crate) fn new(max_angle: f32) -> Self {
         let (sin_half, cos_half) = half_sin_cos(max_angle);
         Self {
             cos: cos_half * cos_half - sin_half * sin_half,

@@ -18,6 +18,7 @@
 //! ```
 
 pub mod ccd;
+pub mod ccd4;
 pub mod chain;
 pub mod error;
 pub mod fabrik;
@@ -29,6 +30,7 @@ pub mod skeleton;
 pub mod sloth;
 
 pub use ccd::{CcdOrder, CcdParams, CcdResult, CcdStatus, solve};
+pub use ccd4::{LimbChains4, solve4, solve4_prepared};
 pub use chain::{CHAIN_JOINTS, ChainPose, LimbChain, RootTransform};
 pub use error::RigError;
 pub use fabrik::FabrikParams;

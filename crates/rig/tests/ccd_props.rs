@@ -3,7 +3,9 @@
 
 use glam::{Quat, Vec3};
 use proptest::prelude::*;
-use slothsim_rig::{CcdParams, CcdStatus, ChainPose, Limb, LimbChain, Rig, RootTransform, solve};
+use slothsim_rig::{
+    CcdParams, CcdStatus, ChainPose, Limb, LimbChain, Rig, RootTransform, solve, solve4,
+};
 
 /// 1 mm: the acceptance distance for "reached".
 const REACH_MM: f32 = 1e-3;
@@ -137,6 +139,41 @@ proptest! {
             prop_assert!(err <= REACH_MM, "frame {frame}: FK error {err} m, {r:?}");
             let delta = before.max_joint_delta(&pose);
             prop_assert!(delta <= MAX_JOINT_DELTA_PER_FRAME, "frame {frame}: joint jump {delta} rad, {r:?}");
+        }
+    }
+
+    /// `solve4` (the four limbs in SIMD lanes) gives exactly `solve`'s poses and
+    /// results, lane by lane: cold and warm starts, reachable targets and anywhere nearby.
+    #[test]
+    fn solve4_is_bit_identical_to_solve(
+        targets_u in prop::array::uniform4(unit12()),
+        starts in prop::array::uniform4(unit12()),
+        roots in prop::array::uniform4(root_strategy()),
+        offsets in prop::array::uniform4(prop::array::uniform3(-0.3f32..0.3)),
+        kind in 0u8..4,
+    ) {
+        // kind: 0 cold reachable, 1 cold anywhere nearby, 2 warm reachable, 3 warm anywhere.
+        let chains = rig().chains();
+        let refs = [&chains[0], &chains[1], &chains[2], &chains[3]];
+        let targets: [Vec3; 4] = std::array::from_fn(|i| {
+            let p = chains[i].fk(roots[i], &chains[i].sample_pose(&targets_u[i]))[4];
+            if kind % 2 == 1 { p + Vec3::from(offsets[i]) } else { p }
+        });
+        let mut a: [ChainPose; 4] = std::array::from_fn(|i| {
+            if kind >= 2 { chains[i].sample_pose(&starts[i]) } else { ChainPose::NEUTRAL }
+        });
+        let mut b = a;
+        let params = CcdParams::default();
+        let r4 = solve4(refs, roots, targets, &mut a, &params);
+        let bits = |p: &ChainPose| p.0.map(|q| q.to_array().map(f32::to_bits));
+        for i in 0..4 {
+            let r = solve(&chains[i], roots[i], targets[i], &mut b[i], &params);
+            prop_assert_eq!(bits(&a[i]), bits(&b[i]), "lane {} pose", i);
+            prop_assert_eq!(r4[i].error.to_bits(), r.error.to_bits(), "lane {} error", i);
+            prop_assert_eq!(
+                (r4[i].reached, r4[i].iterations, r4[i].status),
+                (r.reached, r.iterations, r.status)
+            );
         }
     }
 
