@@ -3,7 +3,7 @@
 //! the collision capsule of the torso.
 
 use glam::{Affine3A, Quat, Vec3};
-use slothsim_rig::{ChainPose, Limb, LimbChain, Rig, RootTransform};
+use slothsim_rig::{ChainPose, Limb, LimbChain, LimbChains4, Rig, RootTransform};
 
 /// Radius of the torso's collision capsule (hips → chest), metres.
 pub const BODY_RADIUS: f32 = 0.07;
@@ -13,6 +13,9 @@ pub const BODY_RADIUS: f32 = 0.07;
 pub struct RigData {
     /// Limb chains by `Limb::index`.
     pub chains: [LimbChain; 4],
+    /// The same four chains prepared for [`slothsim_rig::solve4_prepared`]
+    /// (one SIMD lane a limb).
+    pub chains4: LimbChains4,
     /// Chain root (the joint each chain hangs from) in model space.
     pub roots_ms: [RootTransform; 4],
     /// Limb reach (the shortest of the four), metres.
@@ -51,6 +54,7 @@ impl RigData {
         let head_ms = find("HeadTip", roots_ms[Limb::LF.index()].position.into());
         let chest = find("Chest", roots_ms[Limb::LF.index()].position.into());
         RigData {
+            chains4: LimbChains4::new([&chains[0], &chains[1], &chains[2], &chains[3]]),
             chains,
             roots_ms,
             reach,

@@ -17,7 +17,7 @@
 
 use glam::{Quat, Vec3};
 use serde::{Deserialize, Serialize};
-use slothsim_rig::{CcdParams, ChainPose, Limb};
+use slothsim_rig::{CcdParams, ChainPose, Limb, RootTransform};
 use slothsim_scene::{
     LineTrace, Scene, SceneQuery, SupportId, SupportKind, TraceRequest, TraceResult,
 };
@@ -1477,37 +1477,55 @@ impl Sloth {
     }
 
     fn solve_limbs_with(&mut self, w: &World<'_>, params: &CcdParams) -> u32 {
+        let roots: [RootTransform; 4] =
+            std::array::from_fn(|li| w.rig.root_ws(li, self.body_pos, self.body_rot));
+        let targets = self.targets();
+        let targets_ls: [Vec3; 4] =
+            std::array::from_fn(|li| roots[li].inverse_transform_point(targets[li].into()).into());
+        // A limb that could not reach its target keeps its settled pose while
+        // the target stays put in its root frame (a resting sloth): solving
+        // again would only repeat the polish of the last frame.
+        let settled: [bool; 4] = std::array::from_fn(|li| {
+            self.limbs[li]
+                .settled_ls
+                .is_some_and(|t| t.distance_squared(targets_ls[li]) <= SETTLED_MOVE * SETTLED_MOVE)
+        });
+        // The four limbs in SIMD lanes, each lane exactly the single-limb solve.
+        let mut poses = self.limbs.map(|l| l.pose);
+        let results = if settled.iter().all(|&s| s) {
+            None
+        } else {
+            Some(slothsim_rig::solve4_prepared(
+                &w.rig.chains4,
+                roots,
+                targets,
+                &mut poses,
+                params,
+            ))
+        };
         let mut iterations = 0;
         for li in 0..4 {
-            let root = w.rig.root_ws(li, self.body_pos, self.body_rot);
+            let root = roots[li];
             let l = &mut self.limbs[li];
-            // A limb that could not reach its target keeps its settled pose
-            // while the target stays put in its root frame (a resting sloth):
-            // solving again would only repeat the polish of the last frame.
-            let target_ls = Vec3::from(root.inverse_transform_point(l.target.into()));
-            if l.settled_ls
-                .is_some_and(|t| t.distance_squared(target_ls) <= SETTLED_MOVE * SETTLED_MOVE)
-            {
-                l.root = root.position.into();
-                l.effector = w.rig.chains[li].fk(root, &l.pose)[4];
-                continue;
-            }
-            // A warm solve may stop short when its smoothness guard caps a
-            // large joint move; resume from where it stopped (rare).
-            let mut r = slothsim_rig::solve(&w.rig.chains[li], root, l.target, &mut l.pose, params);
-            iterations += r.iterations;
-            for _ in 0..3 {
-                if r.error <= params.tolerance {
-                    break;
-                }
-                let prev = r.error;
-                r = slothsim_rig::solve(&w.rig.chains[li], root, l.target, &mut l.pose, params);
+            if let (false, Some(results)) = (settled[li], results) {
+                l.pose = poses[li];
+                let mut r = results[li];
                 iterations += r.iterations;
-                if r.error > prev * 0.9 {
-                    break;
+                // A warm solve may stop short when its smoothness guard caps a
+                // large joint move; resume from where it stopped (rare).
+                for _ in 0..3 {
+                    if r.error <= params.tolerance {
+                        break;
+                    }
+                    let prev = r.error;
+                    r = slothsim_rig::solve(&w.rig.chains[li], root, l.target, &mut l.pose, params);
+                    iterations += r.iterations;
+                    if r.error > prev * 0.9 {
+                        break;
+                    }
                 }
+                l.settled_ls = (r.error > params.tolerance).then_some(targets_ls[li]);
             }
-            l.settled_ls = (r.error > params.tolerance).then_some(target_ls);
             l.root = root.position.into();
             l.effector = w.rig.chains[li].fk(root, &l.pose)[4];
         }
