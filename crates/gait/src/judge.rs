@@ -349,7 +349,7 @@ impl Judge {
     fn measure_goal(&mut self, obs: &SlothObservation) {
         let d = obs.goal_distance_m;
         self.min_goal_distance_m = Some(self.min_goal_distance_m.map_or(d, |m| m.min(d)));
-        if self.goal_time_s.is_none() && d <= self.tolerances.goal_tolerance_m {
+        if self.goal_time_s.is_none() && obs.goal_held && d <= self.tolerances.goal_tolerance_m {
             self.goal_time_s = Some(obs.time_s);
         }
     }
@@ -584,6 +584,11 @@ impl JudgeReport {
         }
         match self.goal_time_s {
             None => failures.push(match self.min_goal_distance_m {
+                Some(d) if d <= self.goal_tolerance_m => format!(
+                    "goal_reached false: within {} of the goal (min_goal_distance_m {}) but never with all four limbs on the goal's support",
+                    num(self.goal_tolerance_m),
+                    num(d)
+                ),
                 Some(d) => format!(
                     "goal_reached false: goal not reached (min_goal_distance_m {} > {})",
                     num(d),
@@ -957,6 +962,26 @@ mod tests {
         let f = report.verdict(&Tolerances::default()).failures;
         assert_single_failure(&f, "nan_count 2 > 0");
         serde_json::to_string(&report).unwrap();
+    }
+
+    #[test]
+    fn goal_counts_only_while_held() {
+        // Near the goal but not holding its support (e.g. under the branch
+        // beside a goal on a trunk): not reached, and the failure says why.
+        let report = judge_stream(&Walk::dsdc(), TIME_LIMIT_S, |_, o| o.goal_held = false);
+        assert!(!report.goal_reached && report.goal_time_s.is_none());
+        assert!(report.min_goal_distance_m.unwrap() <= 0.3);
+        let f = report.verdict(&Tolerances::default()).failures;
+        assert_single_failure(&f, "goal_reached false: within 0.3");
+        assert!(f[0].contains("all four limbs"), "{f:?}");
+        // Held from frame 600 on: reached then (or at the first in-range frame after).
+        let walk = Walk::dsdc();
+        let late = judge_stream(&walk, TIME_LIMIT_S, |i, o| o.goal_held = i >= 600);
+        let t = late.goal_time_s.unwrap();
+        assert!(
+            t >= 600.0 * DT - 1e-3 && t >= walk.goal_time_s(0.3) - 2.0 * DT,
+            "{t}"
+        );
     }
 
     #[test]

@@ -52,6 +52,11 @@ pub struct SlothObservation {
     pub penetration_m: f32,
     /// Distance from the body to the goal (see `slothsim_scene::Goal`), metres.
     pub goal_distance_m: f32,
+    /// All four limbs hold the goal's support (or the goal names no support):
+    /// only then does being within the goal tolerance count as reached (a
+    /// body passing near a goal on a trunk while still under the branch has
+    /// not reached it).
+    pub goal_held: bool,
     /// Some value of this sloth's state was NaN/inf this frame.
     pub has_nan: bool,
 }

@@ -1664,6 +1664,7 @@ impl Sloth {
             } else {
                 f32::MAX
             },
+            goal_held: self.goal.is_none_or(|(gs, _)| self.holds_only(gs)),
             has_nan,
         }
     }

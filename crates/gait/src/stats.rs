@@ -708,6 +708,7 @@ pub(crate) mod synthetic {
                 limbs,
                 penetration_m: 0.0,
                 goal_distance_m: (self.goal_z - body_pos.z).abs(),
+                goal_held: true,
                 has_nan: false,
             }
         }
