@@ -43,7 +43,7 @@ fn fk_error(chain: &LimbChain, root: RootTransform, pose: &ChainPose, target: Ve
 
 proptest! {
     #![proptest_config(ProptestConfig {
-        // RIG_PROPTEST_CASES=4000 for a longer soak (passes; see README).
+        // RIG_PROPTEST_CASES=4000 for a longer soak (one known root-motion case fails; see README).
         cases: std::env::var("RIG_PROPTEST_CASES").ok().and_then(|c| c.parse().ok()).unwrap_or(256),
         rng_seed: proptest::test_runner::RngSeed::Fixed(0x5107_4ee5),
         ..ProptestConfig::default()
