@@ -1627,7 +1627,7 @@ impl Sloth {
             }
             seen[k] = sid;
             for &id in std::iter::once(&sid).chain(w.adjacency.neighbours(sid)) {
-                penetration = penetration.max(torso_penetration(scene.support(id), torso));
+                penetration = torso_penetration(scene.support(id), torso, penetration);
             }
         }
         // Until all four limbs hold the goal's support (e.g. still under a
@@ -1671,37 +1671,63 @@ impl Sloth {
 }
 
 /// Whether the torso capsule enters a support deeper than `depth`: the same
-/// as `torso_penetration(s, torso) > depth`, with segments that cannot be that
-/// close skipped by a bounding-sphere test (most of them).
+/// as `torso_penetration(s, torso, depth) > depth`, returning at the first
+/// such segment.
 fn torso_penetrates(s: &slothsim_scene::Support, torso: [Vec3; 2], depth: f32) -> bool {
-    let m = (torso[0] + torso[1]) * 0.5;
-    let h = torso[0].distance(torso[1]) * 0.5;
-    for (i, w) in s.nodes.windows(2).enumerate() {
-        let c = (w[0] + w[1]) * 0.5;
-        let k = w[0].distance(w[1]) * 0.5;
-        // Segment distance ≥ |m − c| − h − k (triangle inequality); 0.1 mm margin.
-        let reach = BODY_RADIUS + s.radii[i].max(s.radii[i + 1]) - depth + h + k + 1e-4;
-        if m.distance_squared(c) > reach * reach {
-            continue;
-        }
-        let (d, t) = segment_distance(torso[0], torso[1], w[0], w[1]);
-        let r = s.radii[i] + (s.radii[i + 1] - s.radii[i]) * t;
-        if BODY_RADIUS + r - d > depth {
+    let bound = TorsoBound::new(torso);
+    for i in 0..s.nodes.len().saturating_sub(1) {
+        if bound.may_exceed(s, i, depth) && segment_depth(s, i, torso) > depth {
             return true;
         }
     }
     false
 }
 
-/// Depth by which the torso capsule (radius [`BODY_RADIUS`]) enters a support.
-fn torso_penetration(s: &slothsim_scene::Support, torso: [Vec3; 2]) -> f32 {
-    let mut depth: f32 = 0.0;
-    for (i, w) in s.nodes.windows(2).enumerate() {
-        let (d, t) = segment_distance(torso[0], torso[1], w[0], w[1]);
-        let r = s.radii[i] + (s.radii[i + 1] - s.radii[i]) * t;
-        depth = depth.max(BODY_RADIUS + r - d);
+/// Deepest penetration of the torso capsule (radius [`BODY_RADIUS`]) into a
+/// support, or `floor` if none is deeper. Segments whose bounding spheres
+/// rule out beating `floor` are skipped (most of them).
+fn torso_penetration(s: &slothsim_scene::Support, torso: [Vec3; 2], floor: f32) -> f32 {
+    let bound = TorsoBound::new(torso);
+    let mut depth = floor;
+    for i in 0..s.nodes.len().saturating_sub(1) {
+        if bound.may_exceed(s, i, depth) {
+            depth = depth.max(segment_depth(s, i, torso));
+        }
     }
     depth
+}
+
+/// Depth of the torso capsule in segment `i` of support `s`.
+fn segment_depth(s: &slothsim_scene::Support, i: usize, torso: [Vec3; 2]) -> f32 {
+    let (d, t) = segment_distance(torso[0], torso[1], s.nodes[i], s.nodes[i + 1]);
+    let r = s.radii[i] + (s.radii[i + 1] - s.radii[i]) * t;
+    BODY_RADIUS + r - d
+}
+
+/// The torso's bounding sphere (centre, half length).
+struct TorsoBound {
+    centre: Vec3,
+    half: f32,
+}
+
+impl TorsoBound {
+    fn new(torso: [Vec3; 2]) -> Self {
+        Self {
+            centre: (torso[0] + torso[1]) * 0.5,
+            half: torso[0].distance(torso[1]) * 0.5,
+        }
+    }
+
+    /// Whether segment `i` of `s` could hold the torso deeper than `depth`:
+    /// the segment distance is at least |centres| − both half lengths
+    /// (triangle inequality); 0.1 mm margin.
+    fn may_exceed(&self, s: &slothsim_scene::Support, i: usize, depth: f32) -> bool {
+        let (a, b) = (s.nodes[i], s.nodes[i + 1]);
+        let c = (a + b) * 0.5;
+        let k = a.distance(b) * 0.5;
+        let reach = BODY_RADIUS + s.radii[i].max(s.radii[i + 1]) - depth + self.half + k + 1e-4;
+        reach > 0.0 && self.centre.distance_squared(c) <= reach * reach
+    }
 }
 
 /// Distance between segments p0–p1 and q0–q1, and the parameter on q.
