@@ -510,12 +510,14 @@ fn reach_check(
 
 /// One stance a step passes through (see [`Sloth::step_reachable`]): the
 /// four IK targets, how close each claw must get, and the body they imply.
-#[derive(Clone, Copy, Default)]
+#[derive(Clone, Copy)]
 struct StanceCheck {
     grips: [Vec3; 4],
     tol: [f32; 4],
     pos: Vec3,
     rot: Quat,
+    /// The chain roots of that body.
+    roots: [RootTransform; 4],
 }
 
 impl Sloth {
@@ -757,8 +759,7 @@ impl Sloth {
         let from = (grips[li], self.limbs[li].grip.normal);
         let mut weights = self.trunk_weights(w);
         // Points of the arc as `body_average` will draw them, then the end.
-        let mut stances = [StanceCheck::default(); SWING_CHECKS.len() + 1];
-        for (k, st) in stances.iter_mut().enumerate() {
+        let stances: [StanceCheck; SWING_CHECKS.len() + 1] = std::array::from_fn(|k| {
             let mut tol;
             if let Some(&t) = SWING_CHECKS.get(k) {
                 grips[li] = swing_point(
@@ -780,18 +781,19 @@ impl Sloth {
             }
             let offset = body_offset(w, weights);
             let (pos, rot) = self.body_for_targets(w, &grips, offset);
-            *st = StanceCheck {
+            StanceCheck {
                 grips,
                 tol,
                 pos,
                 rot,
-            };
-        }
+                roots: std::array::from_fn(|i| w.rig.root_ws(i, pos, rot)),
+            }
+        });
         let max = w.rig.reach * w.cfg.max_reach_fraction;
         let min = w.rig.reach * MIN_REACH_FRACTION;
         let in_band = stances.iter().all(|st| {
             (0..4).all(|i| {
-                let root = Vec3::from(w.rig.root_ws(i, st.pos, st.rot).position);
+                let root = Vec3::from(st.roots[i].position);
                 let d = root.distance(st.grips[i]);
                 !(d > max || d < min)
             })
@@ -815,7 +817,7 @@ impl Sloth {
             .chain((0..last).flat_map(|k| others.clone().map(move |i| (k, i))));
         order.into_iter().all(|(k, i)| {
             let st = &stances[k];
-            let root = w.rig.root_ws(i, st.pos, st.rot);
+            let root = st.roots[i];
             let mut pose = self.limbs[i].pose;
             let params = CcdParams {
                 max_iterations: CHECK_MAX_ITERATIONS,
@@ -838,22 +840,19 @@ impl Sloth {
     fn body_penetrates(&self, w: &World<'_>, pos: Vec3, rot: Quat) -> bool {
         let scene = w.scene();
         let torso = [pos + rot * w.rig.torso_ms[0], pos + rot * w.rig.torso_ms[1]];
-        // The supports the limbs hold and their neighbours (as the judge sees them).
-        let mut seen = [SupportId(u32::MAX); 4];
-        for (k, l) in self.limbs.iter().enumerate() {
-            let sid = l.grip.support;
-            if seen.contains(&sid) {
-                continue;
-            }
-            seen[k] = sid;
-            let deep = std::iter::once(&sid)
-                .chain(w.adjacency.neighbours(sid))
-                .any(|&id| torso_penetrates(scene.support(id), torso, STANCE_MAX_PENETRATION));
-            if deep {
-                return true;
-            }
-        }
-        false
+        self.near_supports(w)
+            .any(|id| torso_penetrates(scene.support(id), torso, STANCE_MAX_PENETRATION))
+    }
+
+    /// The supports the limbs hold (each once) and their neighbours: where
+    /// the body could enter a support (the judge and the step checks alike).
+    fn near_supports<'w>(&self, w: &'w World<'_>) -> impl Iterator<Item = SupportId> + 'w {
+        let held = self.limbs.map(|l| l.grip.support);
+        (0..4)
+            .filter(move |&k| !held[..k].contains(&held[k]))
+            .flat_map(move |k| {
+                std::iter::once(held[k]).chain(w.adjacency.neighbours(held[k]).iter().copied())
+            })
     }
 
     /// Travel vector (unit): body forward × dir.
@@ -1618,18 +1617,9 @@ impl Sloth {
         let fore = scene.support(self.limbs[Limb::LF.index()].grip.support);
         let on_trunk =
             fore.kind == SupportKind::Trunk && self.limbs[Limb::RF.index()].grip.support == fore.id;
-        let mut penetration: f32 = 0.0;
-        let mut seen = [SupportId(u32::MAX); 4];
-        for (k, l) in self.limbs.iter().enumerate() {
-            let sid = l.grip.support;
-            if seen.contains(&sid) {
-                continue;
-            }
-            seen[k] = sid;
-            for &id in std::iter::once(&sid).chain(w.adjacency.neighbours(sid)) {
-                penetration = torso_penetration(scene.support(id), torso, penetration);
-            }
-        }
+        let penetration = self
+            .near_supports(w)
+            .fold(0.0, |p, id| torso_penetration(scene.support(id), torso, p));
         // Until all four limbs hold the goal's support (e.g. still under a
         // branch that passes near the goal on a trunk) the distance is the
         // body's straight distance to the goal point.
