@@ -909,12 +909,7 @@ pub fn solve4(
     poses: &mut [ChainPose; 4],
     params: &CcdParams,
 ) -> [CcdResult; 4] {
-    #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx2") {
-        // SAFETY: the CPU has AVX2 (checked just above).
-        return unsafe { solve4_avx2(chains, Layout::Build, roots, targets, poses, params) };
-    }
-    solve4_impl(chains, Layout::Build, roots, targets, poses, params)
+    solve4_dispatch(chains, Layout::Build, roots, targets, poses, params)
 }
 
 /// [`solve4`] on prepared chains (lane `i` = `chains.chains()[i]`); bit-identical to
@@ -929,12 +924,24 @@ pub fn solve4_prepared(
     let c = &chains.chains;
     let refs = [&c[0], &c[1], &c[2], &c[3]];
     let layout = Layout::Prepared(chains.soa.as_ref());
+    solve4_dispatch(refs, layout, roots, targets, poses, params)
+}
+
+/// [`solve4_impl`], in its AVX2 build where the CPU has AVX2.
+fn solve4_dispatch(
+    chains: [&LimbChain; 4],
+    layout: Layout<'_>,
+    roots: [RootTransform; 4],
+    targets: [Vec3; 4],
+    poses: &mut [ChainPose; 4],
+    params: &CcdParams,
+) -> [CcdResult; 4] {
     #[cfg(target_arch = "x86_64")]
     if std::arch::is_x86_feature_detected!("avx2") {
         // SAFETY: the CPU has AVX2 (checked just above).
-        return unsafe { solve4_avx2(refs, layout, roots, targets, poses, params) };
+        return unsafe { solve4_avx2(chains, layout, roots, targets, poses, params) };
     }
-    solve4_impl(refs, layout, roots, targets, poses, params)
+    solve4_impl(chains, layout, roots, targets, poses, params)
 }
 
 /// [`solve4_impl`] compiled with AVX2 (VEX encoding; same IEEE operations).
