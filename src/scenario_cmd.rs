@@ -25,6 +25,8 @@ pub enum VariantArg {
     Up,
     /// Climb down, head up.
     Down,
+    /// Side-step half way around the trunk's axis.
+    Around,
 }
 
 #[derive(Args)]
@@ -159,13 +161,14 @@ fn print_result(r: &ScenarioResult) {
     }
 }
 
-/// The goal point as run (the trunk's down variant swaps start and goal).
+/// The goal point as run (the trunk's down variant swaps start and goal;
+/// the around variant's is on the far side of the start).
 fn goal_of(spec: &ScenarioSpec) -> glam::Vec3 {
     let p = &spec.preset;
-    if p.kind == PresetKind::Trunk && spec.variant == TrunkVariant::Down {
-        p.start.position
-    } else {
-        p.goal.point
+    match (p.kind, spec.variant) {
+        (PresetKind::Trunk, TrunkVariant::Down) => p.start.position,
+        (PresetKind::Trunk, TrunkVariant::Around) => p.start.position - p.start.body_side * 0.3,
+        _ => p.goal.point,
     }
 }
 
@@ -188,6 +191,7 @@ pub fn scenario(args: ScenarioArgs) -> Result<bool> {
         variant: match args.variant {
             VariantArg::Up => TrunkVariant::Up,
             VariantArg::Down => TrunkVariant::Down,
+            VariantArg::Around => TrunkVariant::Around,
         },
         cfg,
         dt: args.dt,
@@ -306,7 +310,7 @@ pub fn matrix(args: MatrixArgs) -> Result<bool> {
             None => vec![None],
         };
         let variants: &[TrunkVariant] = if kind == PresetKind::Trunk {
-            &[TrunkVariant::Up, TrunkVariant::Down]
+            &[TrunkVariant::Up, TrunkVariant::Down, TrunkVariant::Around]
         } else {
             &[TrunkVariant::Up]
         };

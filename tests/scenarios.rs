@@ -60,6 +60,26 @@ fn trunk_climb_up_head_up() {
 }
 
 #[test]
+fn trunk_side_steps_half_way_around_head_up() {
+    for radius in [0.1, 0.15, 0.2] {
+        let r = run("trunk", Some(radius), TrunkVariant::Around, Profile::Free);
+        assert_measures_within_issue_limits(&r);
+        assert_eq!(r.judge.head_below_hips_on_trunk_frames, 0);
+        // The body went around the axis (the trunk stands at x = z = 0; the
+        // start faces it from +Z) to the far side, at about the same height.
+        let (first, last) = (r.trail[0], *r.trail.last().unwrap());
+        let side = |p: glam::Vec3| glam::Vec2::new(p.x, p.z).normalize();
+        let turned = side(first).angle_to(side(last)).abs();
+        assert!(
+            turned >= 150f32.to_radians(),
+            "radius {radius}: turned {}°",
+            turned.to_degrees()
+        );
+        assert!((last.y - first.y).abs() < 0.15, "{first} → {last}");
+    }
+}
+
+#[test]
 fn trunk_climb_down_tail_first_head_up() {
     let r = run("trunk", None, TrunkVariant::Down, Profile::Free);
     assert_measures_within_issue_limits(&r);

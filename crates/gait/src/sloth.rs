@@ -97,6 +97,16 @@ const TRANSFER_ROLL_POWER: f32 = 0.75;
 const TRANSFER_AWAY: f32 = 0.3;
 /// A fore limb takes a trunk at least this far above the hind limbs' grips (head up).
 const HEAD_UP_MARGIN: f32 = 0.05;
+/// Side steps around a trunk (SPEC `find_side_step`): each step places its
+/// grip around the side the body faces the trunk from, turned about the axis
+/// toward the goal's side by at most this much (radians) and ...
+const SIDE_STEP_MAX_TURN: f32 = 0.35;
+/// ... by at most this much of the trunk's surface (metres) ...
+const SIDE_STEP_MAX_ARC: f32 = 0.05;
+/// ... until the body faces the trunk from within this angle of that side.
+const SIDE_STEP_DONE: f32 = 0.05;
+/// A side step may lose this much height along the axis (metres).
+const SIDE_STEP_AXIAL_SLACK: f32 = 0.02;
 
 /// A change between a branch and a trunk in progress (SPEC `transfer_to_trunk`,
 /// `transfer_to_branch`). On the trunk the body faces it from `side`; while
@@ -113,6 +123,19 @@ pub struct Transfer {
     pub side: Vec3,
     /// Unit direction from the trunk's axis toward the branch, perpendicular to the axis.
     pub away: Vec3,
+}
+
+/// A side step around a trunk (see [`Sloth::side_step`]).
+#[derive(Clone, Copy, Debug)]
+struct SideStep {
+    /// Signed turn about `axis_up` of the side the step's grip is placed around (radians).
+    turn: f32,
+    /// The trunk's axis, pointing up.
+    axis_up: Vec3,
+    /// Unit direction from the axis to the body now.
+    side_now: Vec3,
+    /// The goal's height along `axis_up` relative to the body's (metres).
+    axial_to_goal: f32,
 }
 
 /// Shared read-only inputs of the kernels.
@@ -256,6 +279,11 @@ pub struct Sloth {
     pub goal: Option<(SupportId, Vec3)>,
     /// Goal tolerance (metres).
     pub goal_tolerance: f32,
+    /// On a trunk goal: the unit direction from the trunk's axis toward the
+    /// body at the goal (the body moves around the axis with side steps until
+    /// it faces the trunk from there). `None`: any side.
+    #[serde(default)]
+    pub goal_side: Option<Vec3>,
     /// Step searches that found nothing since the last step taken.
     pub failed_searches: u8,
     /// Autorun: no goal; at a dead end (or blocked by other sloths) turn
@@ -598,6 +626,7 @@ impl Sloth {
             status: Status::Moving,
             goal: goal.map(|(s, p, _)| (s, p)),
             goal_tolerance: goal.map_or(0.3, |g| g.2),
+            goal_side: None,
             failed_searches: 0,
             wander: false,
             seed: 0,
@@ -672,6 +701,27 @@ impl Sloth {
         self.limbs
             .iter()
             .all(|l| l.phase != LimbPhase::Swinging && l.grip.support == sid)
+    }
+
+    /// Distance from the body to the goal, and whether the goal's support is
+    /// held: all four limbs on it, body beside it. Held, the distance is from
+    /// the body's closest axis point to the goal point, or with a goal side,
+    /// from the body to where it would be facing the support from that side
+    /// (a chord around a trunk). Not held (e.g. still under a branch that
+    /// passes near the goal on a trunk), the body's straight distance to the
+    /// goal point. `None` without a goal.
+    fn goal_distance(&self, w: &World<'_>) -> Option<(f32, bool)> {
+        let (gs, gp) = self.goal?;
+        let a = project(w.scene().support(gs), self.body_pos);
+        let off_axis = self.body_pos - a.point;
+        if !(self.holds_only(gs) && off_axis.length() < 0.6) {
+            return Some((self.body_pos.distance(gp), false));
+        }
+        let d = match self.goal_side {
+            Some(side) => self.body_pos.distance(gp + side * off_axis.length()),
+            None => a.point.distance(gp),
+        };
+        Some((d, true))
     }
 
     fn targets(&self) -> [Vec3; 4] {
@@ -1184,6 +1234,66 @@ impl Sloth {
         }
     }
 
+    /// The search of limb `li` on the support it holds: from the search
+    /// distance ahead of its grip back to the grip. Side-stepping around a
+    /// trunk, the range goes toward the goal's height and no farther, down
+    /// to a step at the grip's own height.
+    fn own_search(&self, w: &World<'_>, li: usize) -> Search {
+        let g = self.limbs[li].grip;
+        let mut search = Search {
+            support: g.support,
+            sdir: g.sdir,
+            first_u: g.u + g.sdir * w.cfg.search_distance_m,
+            next_u: g.u + g.sdir * w.cfg.search_distance_m,
+            last_u: g.u,
+            neighbour: u16::MAX,
+            retreat: false,
+        };
+        if let Some(ss) = self.side_step(w, g.support) {
+            let sdir = if ss.axial_to_goal >= 0.0 { 1.0 } else { -1.0 };
+            let ahead = ss.axial_to_goal.abs().min(w.cfg.search_distance_m);
+            search.sdir = sdir;
+            search.first_u = g.u + sdir * ahead;
+            search.next_u = search.first_u;
+            search.last_u = g.u - sdir * SIDE_STEP_AXIAL_SLACK;
+        }
+        search
+    }
+
+    /// Side steps around trunk `sid` (SPEC `find_side_step`): when the goal
+    /// is on this trunk with a side the body does not yet face it from, the
+    /// turn about the axis the next step makes (toward the goal's side, the
+    /// shorter way) and the goal's distance along the axis from the body.
+    fn side_step(&self, w: &World<'_>, sid: SupportId) -> Option<SideStep> {
+        let (gs, gp) = self.goal?;
+        let goal_side = self.goal_side?;
+        let s = w.scene().support(sid);
+        if gs != sid || s.kind != SupportKind::Trunk || self.transfer.is_some() {
+            return None;
+        }
+        let a = project(s, self.body_pos);
+        let axis_up = if a.tangent.y >= 0.0 {
+            a.tangent
+        } else {
+            -a.tangent
+        };
+        let off_axis = self.body_pos - a.point;
+        let side_now = (off_axis - axis_up * axis_up.dot(off_axis)).try_normalize()?;
+        let turn = axis_up
+            .dot(side_now.cross(goal_side))
+            .atan2(side_now.dot(goal_side));
+        if turn.abs() <= SIDE_STEP_DONE {
+            return None;
+        }
+        let max_turn = SIDE_STEP_MAX_TURN.min(SIDE_STEP_MAX_ARC / a.radius.max(1e-3));
+        Some(SideStep {
+            turn: turn.clamp(-max_turn, max_turn),
+            axis_up,
+            side_now,
+            axial_to_goal: (project(s, gp).u - a.u) * (axis_up.dot(a.tangent)),
+        })
+    }
+
     /// The candidate range of limb `li` on neighbour support `sid`, if its
     /// surface comes within reach of the limb's root.
     fn neighbour_search(&self, w: &World<'_>, li: usize, sid: SupportId, k: u16) -> Option<Search> {
@@ -1254,16 +1364,7 @@ impl Sloth {
             }
             false
         };
-        let own = Search {
-            support: g.support,
-            sdir: g.sdir,
-            first_u: g.u + g.sdir * w.cfg.search_distance_m,
-            next_u: g.u + g.sdir * w.cfg.search_distance_m,
-            last_u: g.u,
-            neighbour: u16::MAX,
-            retreat: false,
-        };
-        if scan(&own) {
+        if scan(&self.own_search(w, li)) {
             return true;
         }
         let fore_supports = [
@@ -1324,8 +1425,15 @@ impl Sloth {
         let a = axis_at(s, u);
         // A transfer onto this trunk: the grips sit around the side the body will face it from.
         let transfer = self.transfer.filter(|t| t.to == sid);
-        let body_side = match transfer {
-            Some(t) if t.trunk == sid => t.side,
+        // A side step: around the side the body faces the trunk from, turned toward the goal's.
+        let side_step = if sid == self.limbs[li].grip.support {
+            self.side_step(w, sid)
+        } else {
+            None
+        };
+        let body_side = match (transfer, side_step) {
+            (Some(t), _) if t.trunk == sid => t.side,
+            (_, Some(ss)) => Quat::from_axis_angle(ss.axis_up, ss.turn) * ss.side_now,
             _ => self.body_pos - a.point,
         };
         let transfer_step = transfer.is_some() && sid != self.limbs[li].grip.support;
@@ -1351,7 +1459,14 @@ impl Sloth {
         } else {
             0.0
         };
-        let step_ok = if retreat {
+        let step_ok = if let Some(ss) = side_step.filter(|_| !retreat) {
+            // Around the axis (the way the body turns) and toward the goal's
+            // height, never much away from it.
+            let d = approx - cur;
+            let around = d.dot(ss.axis_up.cross(ss.side_now) * ss.turn.signum());
+            let along = d.dot(a.tangent * sdir);
+            around >= 0.0 && along >= -SIDE_STEP_AXIAL_SLACK && around + along.max(0.0) >= min_step
+        } else if retreat {
             step <= -w.cfg.min_step_m
         } else {
             // A transfer step goes where the other support is (reach decides).
@@ -1374,7 +1489,13 @@ impl Sloth {
         }
         let opp = self.limbs[limb.opposite().index()].grip.point;
         let lead = (approx - opp).dot(travel);
-        if !transfer_step && !(0.0..=MAX_GIRDLE_LEAD * w.cfg.max_step_m).contains(&lead) {
+        let lead_ok = match side_step {
+            // Side-stepping, the girdle's limbs keep about level on the axis
+            // (around it, the pair is always apart by the grip angle).
+            Some(ss) => (approx - opp).dot(ss.axis_up).abs() <= MAX_GIRDLE_LEAD * w.cfg.max_step_m,
+            None => transfer_step || (0.0..=MAX_GIRDLE_LEAD * w.cfg.max_step_m).contains(&lead),
+        };
+        if !lead_ok {
             return None;
         }
         // Onto a trunk head up: a fore limb takes it above the hind limbs.
@@ -1537,15 +1658,10 @@ impl Sloth {
     /// turn has come start searching (their first traces go into `batch`).
     pub fn transitions(&mut self, w: &World<'_>, dt: f32, batch: &mut TraceBatch) {
         self.time += dt;
-        if let Some((gs, gp)) = self.goal {
-            let s = w.scene().support(gs);
-            let a = project(s, self.body_pos);
-            if self.holds_only(gs)
-                && a.point.distance(gp) <= self.goal_tolerance
-                && a.point.distance(self.body_pos) < 0.6
-            {
-                self.status = Status::Arrived;
-            }
+        if let Some((d, true)) = self.goal_distance(w)
+            && d <= self.goal_tolerance
+        {
+            self.status = Status::Arrived;
         }
         if self.status != Status::Moving {
             return;
@@ -1576,16 +1692,7 @@ impl Sloth {
             }
             self.limbs[li].due = false;
             self.limbs[li].phase = LimbPhase::Searching;
-            let g = l.grip;
-            self.limbs[li].search = Search {
-                support: g.support,
-                sdir: g.sdir,
-                first_u: g.u + g.sdir * w.cfg.search_distance_m,
-                next_u: g.u + g.sdir * w.cfg.search_distance_m,
-                last_u: g.u,
-                neighbour: u16::MAX,
-                retreat: false,
-            };
+            self.limbs[li].search = self.own_search(w, li);
             self.queue_candidates(w, li, batch);
         }
     }
@@ -1620,20 +1727,7 @@ impl Sloth {
         let penetration = self
             .near_supports(w)
             .fold(0.0, |p, id| torso_penetration(scene.support(id), torso, p));
-        // Until all four limbs hold the goal's support (e.g. still under a
-        // branch that passes near the goal on a trunk) the distance is the
-        // body's straight distance to the goal point.
-        let goal_distance_m = match self.goal {
-            Some((gs, gp)) => {
-                let a = project(scene.support(gs), self.body_pos);
-                if self.holds_only(gs) && a.point.distance(self.body_pos) < 0.6 {
-                    a.point.distance(gp)
-                } else {
-                    self.body_pos.distance(gp)
-                }
-            }
-            None => f32::INFINITY,
-        };
+        let goal_distance_m = self.goal_distance(w).map_or(f32::INFINITY, |(d, _)| d);
         let has_nan = !(self.body_pos.is_finite()
             && self.body_rot.is_finite()
             && self

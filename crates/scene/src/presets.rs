@@ -105,8 +105,13 @@ pub struct Goal {
     pub support: SupportId,
     /// A point on that support's axis.
     pub point: Vec3,
-    /// Reached when the body centre's closest axis point is within this distance of `point`.
+    /// Reached when the body centre's closest axis point is within this distance of `point`
+    /// (with a `side`, the body centre within this distance of where it
+    /// would be facing the support from that side).
     pub tolerance: f32,
+    /// On a trunk: the unit direction (perpendicular to the axis) from the
+    /// axis toward the body at the goal; `None`: any side.
+    pub side: Option<Vec3>,
 }
 
 /// A scenario: a small scene, a start and a goal.
@@ -279,6 +284,7 @@ fn goal(support: u32, point: Vec3) -> Goal {
         support: SupportId(support),
         point,
         tolerance: 0.3,
+        side: None,
     }
 }
 

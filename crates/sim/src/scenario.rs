@@ -26,7 +26,14 @@ pub enum TrunkVariant {
     Up,
     /// Climb down, head up.
     Down,
+    /// Side-step half way around the trunk's axis at the start's height.
+    Around,
 }
+
+/// The around variant's goal: the body within this distance of where it
+/// would be on the far side of the trunk (a chord: about 23° of turn
+/// around a 0.15 m trunk), metres.
+pub const AROUND_GOAL_TOLERANCE: f32 = 0.1;
 
 /// What to run.
 #[derive(Clone, Debug)]
@@ -98,7 +105,17 @@ pub fn run_scenario(
         goal.point.y += 0.5;
         start.forward = -start.forward;
     }
-    let path_len = start.position.distance(goal.point) + 1.0;
+    if preset.kind == PresetKind::Trunk && variant == TrunkVariant::Around {
+        // Half way around: the start is on the trunk's axis, the body beside it.
+        goal.point = start.position;
+        goal.side = Some(-start.body_side);
+        goal.tolerance = AROUND_GOAL_TOLERANCE;
+    }
+    // The way around counts at about the body's distance from a trunk's axis.
+    let around = goal
+        .side
+        .map_or(0.0, |side| side.angle_between(start.body_side) * 0.3);
+    let path_len = start.position.distance(goal.point) + around + 1.0;
     let time_limit_s = spec.time_limit_s.unwrap_or(30.0 + path_len / 0.03);
     let loco = Locomotion::new(spec.cfg.clone(), rig, TraceScene::new(preset.scene.clone()))?;
     let mut world = new_world(loco, spec.dt);
@@ -108,12 +125,15 @@ pub fn run_scenario(
         forward: start.forward,
         body_side: start.body_side,
     };
-    spawn_sloth(
+    let entity = spawn_sloth(
         &mut world,
         0,
         &hint,
         Some((goal.support, goal.point, goal.tolerance)),
     );
+    if let Some(mut s) = world.get_mut::<SlothState>(entity) {
+        s.0.goal_side = goal.side;
+    }
     let mut schedule = crate::build_schedule();
     let mut judge = Judge::new(
         Tolerances {
