@@ -93,8 +93,13 @@ const TRANSFER_SIDE_ANGLE: f32 = std::f32::consts::FRAC_PI_3;
 const TRANSFER_STEP_FACTOR: f32 = 1.5;
 /// The body's roll over a transfer follows the share of limbs on the trunk to this power.
 const TRANSFER_ROLL_POWER: f32 = 0.75;
-/// Mid-transfer the body's up leans this much (at most) away from the trunk.
-const TRANSFER_AWAY: f32 = 0.3;
+/// Mid-transfer the body's up leans this much (at most) away from the trunk,
+/// so the body clears it while the hind limbs are still on the branch. No
+/// more: every centimetre the body is pushed off the trunk is one the limbs
+/// reaching around it lack (0.3 stranded the second fore limb on a branch
+/// meeting the trunk from below at 135–140°; the stance checks reject any
+/// penetration a smaller lean would cause).
+const TRANSFER_AWAY: f32 = 0.15;
 /// A fore limb takes a trunk at least this far above the hind limbs' grips (head up).
 const HEAD_UP_MARGIN: f32 = 0.05;
 /// Side steps around a trunk (SPEC `find_side_step`): each step places its
@@ -1489,11 +1494,24 @@ impl Sloth {
         }
         let opp = self.limbs[limb.opposite().index()].grip.point;
         let lead = (approx - opp).dot(travel);
+        // A limb normally lands level with or ahead of its girdle partner. One
+        // left more than a step behind it (transfer steps reach around a
+        // trunk and may split a girdle by more than a step) could never land
+        // level, and its partner may not lead further: it closes the gap as
+        // far as a step goes instead (the farthest valid candidate wins).
+        let cur_lead = (cur - opp).dot(travel);
+        let min_lead = if cur_lead < -(w.cfg.max_step_m - w.cfg.min_step_m) {
+            cur_lead + w.cfg.min_step_m
+        } else {
+            0.0
+        };
         let lead_ok = match side_step {
             // Side-stepping, the girdle's limbs keep about level on the axis
             // (around it, the pair is always apart by the grip angle).
             Some(ss) => (approx - opp).dot(ss.axis_up).abs() <= MAX_GIRDLE_LEAD * w.cfg.max_step_m,
-            None => transfer_step || (0.0..=MAX_GIRDLE_LEAD * w.cfg.max_step_m).contains(&lead),
+            None => {
+                transfer_step || (min_lead..=MAX_GIRDLE_LEAD * w.cfg.max_step_m).contains(&lead)
+            }
         };
         if !lead_ok {
             return None;
