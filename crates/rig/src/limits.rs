@@ -186,6 +186,12 @@ impl JointLimit {
     /// How far (radians, ≥ 0) the rotation `q` lies outside the limit; 0 inside it.
     /// For a hinge, any rotation off the hinge axis counts as violation too.
     pub fn violation(&self, q: Quat) -> f32 {
+        // The judge asks this of every joint every frame, and the solver
+        // leaves many joints exactly at a limit: the trig-free path below
+        // answers all but real violations (and degenerate rotations).
+        if let Some(v) = self.violation_near(q) {
+            return v;
+        }
         match *self {
             JointLimit::Free => 0.0,
             JointLimit::Hinge { axis, min, max } => {
@@ -206,6 +212,83 @@ impl JointLimit {
             }
         }
     }
+
+    /// [`Self::violation`] without trigonometry, where every angle past a
+    /// limit is either negative or small; `None` otherwise.
+    ///
+    /// With `h` the twist half-angle (`atan2(along, w)`, in `[-π/2, π/2]` for
+    /// a canonical `q`) and `a` a limit's half-angle, `along·cos a − w·sin a`
+    /// and `w·cos a + along·sin a` are `L·sin(h − a)` and `L·cos(h − a)`
+    /// (`L` = the twist's length); the swing half-angle (`atan2(off, L)`) works
+    /// the same way. A small positive `h − a` is `asin` of that sine by its
+    /// series. The limits' half-angle sines and cosines come from the
+    /// solver's polynomial (error < 1e-7): results agree with the angles'
+    /// difference to a few 1e-7 rad, the f32 rounding of the angles themselves.
+    fn violation_near(&self, q: Quat) -> Option<f32> {
+        let (axis, lo, hi, swing_max) = match *self {
+            JointLimit::Free => return Some(0.0),
+            JointLimit::Hinge { axis, min, max } => (axis, min, max, None),
+            JointLimit::Ball {
+                twist_axis,
+                swing_max,
+                twist_min,
+                twist_max,
+            } => (twist_axis, twist_min, twist_max, Some(swing_max)),
+        };
+        let q = canonical(q);
+        let v = Vec3A::new(q.x, q.y, q.z);
+        let along = v.dot(axis);
+        let twist_len = (along * along + q.w * q.w).sqrt();
+        let off = (v - axis * along).length();
+        if twist_len < 1e-3 {
+            return None;
+        }
+        let (s_lo, c_lo) = half_sin_cos(lo);
+        let (s_hi, c_hi) = half_sin_cos(hi);
+        let past_hi = past_limit(
+            along * c_hi - q.w * s_hi,
+            q.w * c_hi + along * s_hi,
+            twist_len,
+        )?;
+        let past_lo = past_limit(
+            q.w * s_lo - along * c_lo,
+            q.w * c_lo + along * s_lo,
+            twist_len,
+        )?;
+        let past = past_hi.max(past_lo);
+        let swing = match swing_max {
+            // Any swing off a hinge's axis is a violation.
+            None => {
+                let r = off / twist_len;
+                if r > NEAR_ANGLE_SIN {
+                    return None;
+                }
+                2.0 * (r - r * r * r / 3.0)
+            }
+            Some(sm) => {
+                let (s, c) = half_sin_cos(sm);
+                let norm = (off * off + twist_len * twist_len).sqrt();
+                past_limit(off * c - twist_len * s, twist_len * c + off * s, norm)?
+            }
+        };
+        Some(past.max(swing).max(0.0))
+    }
+}
+
+/// Up to this sine of a half-angle past a limit, [`past_limit`] uses the
+/// series (its next term is below 1e-11 rad).
+const NEAR_ANGLE_SIN: f32 = 0.01;
+
+/// Twice the angle `d` in `[-π, π]` with `sin d = sin_len / len` and
+/// `cos d = cos_len / len` — how far a full angle is past a limit — if it is
+/// not positive (`Some(0)`) or small; `None` when it needs `atan2`.
+#[inline]
+fn past_limit(sin_len: f32, cos_len: f32, len: f32) -> Option<f32> {
+    if sin_len <= 0.0 {
+        return Some(0.0);
+    }
+    let s = sin_len / len;
+    (cos_len > 0.0 && s <= NEAR_ANGLE_SIN).then(|| 2.0 * (s + s * s * s / 6.0))
 }
 
 /// `q` with a non-negative scalar part (same rotation).
@@ -421,6 +504,63 @@ mod tests {
         assert!((swing - 0.5).abs() < 1e-4 && (twist - 0.25).abs() < 1e-4);
         let inside = Quat::from_rotation_x(0.2);
         assert_eq!(lim.clamp(inside), inside);
+    }
+
+    /// The violation straight from the swing–twist angles (no fast path).
+    fn violation_exact(lim: &JointLimit, q: Quat) -> f32 {
+        match *lim {
+            JointLimit::Free => 0.0,
+            JointLimit::Hinge { axis, min, max } => {
+                let (swing, twist) = swing_twist_angles(q, axis);
+                swing.max(min - twist).max(twist - max).max(0.0)
+            }
+            JointLimit::Ball {
+                twist_axis,
+                swing_max,
+                twist_min,
+                twist_max,
+            } => {
+                let (swing, twist) = swing_twist_angles(q, twist_axis);
+                (swing - swing_max)
+                    .max(twist_min - twist)
+                    .max(twist - twist_max)
+                    .max(0.0)
+            }
+        }
+    }
+
+    proptest::proptest! {
+        /// The trig-free fast path agrees with the exact angles, for rotations
+        /// anywhere and right at the limits (a twist `at` a limit, nudged by
+        /// `nudge`, with a small swing `off`).
+        #[test]
+        fn violation_fast_path_matches_exact(
+            ax in (-1.0f32..1.0, -1.0f32..1.0, -1.0f32..1.0),
+            lo in -3.1f32..0.0, span in 0.0f32..3.1, swing_max in 0.0f32..3.1,
+            rot in (-1.0f32..1.0, -1.0f32..1.0, -1.0f32..1.0, -3.1f32..3.1),
+            at in 0usize..3, nudge in -1e-4f32..1e-4, off in 0.0f32..0.01,
+        ) {
+            let axis = Vec3A::new(ax.0, ax.1, ax.2 + 2.0).normalize();
+            let hi = (lo + span).min(3.1);
+            let limits = [
+                JointLimit::Hinge { axis, min: lo, max: hi },
+                JointLimit::Ball { twist_axis: axis, swing_max, twist_min: lo, twist_max: hi },
+            ];
+            let r_axis = Vec3A::new(rot.0, rot.1, rot.2 + 2.0).normalize();
+            let anywhere = quat_axis_angle(r_axis, rot.3);
+            let twist = [lo, hi, 0.5 * (lo + hi)][at] + nudge;
+            let perp = axis.cross(Vec3A::X).normalize_or(axis.cross(Vec3A::Y).normalize());
+            let near = quat_axis_angle(perp, off) * quat_axis_angle(axis, twist);
+            for lim in &limits {
+                for q in [anywhere, near, -near] {
+                    let (fast, exact) = (lim.violation(q), violation_exact(lim, q));
+                    proptest::prop_assert!(
+                        (fast - exact).abs() <= 1e-6 + 1e-6 * exact,
+                        "{lim:?} {q:?}: fast {fast} exact {exact}"
+                    );
+                }
+            }
+        }
     }
 
     #[test]
