@@ -302,6 +302,17 @@ fn print_summary(s: &CrowdStats, wall_s: f64, out: &Path) {
         "stuck sloths {} (no step in the last 10 s), turn-backs {}",
         s.stuck_sloths, s.turn_backs
     );
+    let r = &s.roaming;
+    println!(
+        "roaming: {} of {} supports visited ({:.1} per sloth), {} trunks climbed, {:.1} % of the time on trunks, {} branch ↔ trunk changes by {} sloths",
+        r.supports_visited,
+        r.supports,
+        r.supports_per_sloth_mean,
+        r.trunks_climbed,
+        r.trunk_frame_share * 100.0,
+        r.branch_trunk_changes,
+        r.sloths_changing_kind
+    );
     println!("state_hash {}", s.state_hash);
     println!("wrote {}", out.display());
 }

@@ -76,6 +76,15 @@ fn same_seed_same_state_for_1_and_2_threads_and_repeats() {
     assert_eq!(a["nan_count"], 0);
     assert_eq!(a["joint_limit_violations"], 0);
     assert!(a["min_limbs_in_contact"].as_u64().unwrap() >= 2);
+    // Roaming: every sloth planted on at least the support it started on.
+    let r = &a["roaming"];
+    let visited = r["supports_visited"].as_u64().unwrap();
+    assert!(
+        visited >= 30 && visited <= r["supports"].as_u64().unwrap(),
+        "{r}"
+    );
+    assert!(r["supports_per_sloth_mean"].as_f64().unwrap() >= 1.0, "{r}");
+    assert_eq!(a["roaming"], b["roaming"], "roaming is deterministic too");
     // timings.csv: header + one row a frame.
     let csv = std::fs::read_to_string(tmp.path().join("a/timings.csv")).unwrap();
     let mut lines = csv.lines();

@@ -16,7 +16,7 @@ use slothsim_gait::{
     SlothObservation, SpawnHint, Tolerances, TraceBatch,
 };
 use slothsim_rig::Rig;
-use slothsim_scene::{ForestConfig, Scene, SupportKind, TraceScene};
+use slothsim_scene::{ForestConfig, Scene, SupportId, SupportKind, TraceScene};
 
 use crate::StageTimings;
 use crate::world::{CrowdNeighbours, Locomotion, SimClock, SlothId, SlothState, Traces, new_world};
@@ -127,6 +127,16 @@ pub struct Observer {
     planted: [bool; 4],
     /// Simulated time of the last touch-down.
     last_step_s: f32,
+    /// Distinct supports a limb of this sloth was planted on, in order of first visit.
+    visited: Vec<SupportId>,
+    /// Frames on a trunk.
+    trunk_frames: u64,
+    /// Frames observed.
+    frames: u64,
+    /// Changes between branch and trunk (the body's `on_trunk` flips).
+    kind_changes: u32,
+    /// `on_trunk` of the last frame.
+    on_trunk: Option<bool>,
 }
 
 impl Observer {
@@ -136,6 +146,11 @@ impl Observer {
             stats: GaitStats::new(),
             planted: [true; 4],
             last_step_s: time_s,
+            visited: Vec::new(),
+            trunk_frames: 0,
+            frames: 0,
+            kind_changes: 0,
+            on_trunk: None,
         }
     }
 
@@ -147,7 +162,17 @@ impl Observer {
                 self.last_step_s = obs.time_s;
             }
             self.planted[i] = l.planted;
+            // A short list (a sloth holds a few dozen supports in a long run).
+            if l.planted && !self.visited.contains(&l.support) {
+                self.visited.push(l.support);
+            }
         }
+        self.frames += 1;
+        self.trunk_frames += u64::from(obs.on_trunk);
+        if self.on_trunk.is_some_and(|t| t != obs.on_trunk) {
+            self.kind_changes += 1;
+        }
+        self.on_trunk = Some(obs.on_trunk);
     }
 }
 
@@ -211,10 +236,32 @@ pub struct CrowdStats {
     pub stuck_ids: Vec<u32>,
     /// Times sloths turned back (dead ends or blocked), summed.
     pub turn_backs: u64,
+    /// How much of the forest the crowd roamed in this run.
+    pub roaming: Roaming,
     /// Which sloth holds the worst value of each measure (id), for follow-up.
     pub worst_sloths: WorstSloths,
     /// The full judge report over the crowd.
     pub judge: JudgeReport,
+}
+
+/// How much of the forest a crowd run covered (this run's frames; a resumed
+/// run counts its own part).
+#[derive(Clone, Copy, Debug, Default, Serialize)]
+pub struct Roaming {
+    /// Supports of the forest.
+    pub supports: u32,
+    /// Supports some sloth planted a limb on.
+    pub supports_visited: u32,
+    /// Mean over sloths of the distinct supports each planted a limb on.
+    pub supports_per_sloth_mean: f32,
+    /// Trunks some sloth planted a limb on.
+    pub trunks_climbed: u32,
+    /// Share of sloth-frames spent on a trunk.
+    pub trunk_frame_share: f32,
+    /// Changes between branch and trunk (either way), summed over sloths.
+    pub branch_trunk_changes: u64,
+    /// Sloths that changed between branch and trunk at least once.
+    pub sloths_changing_kind: u32,
 }
 
 /// The sloth with the worst value of each judge measure.
@@ -617,6 +664,7 @@ impl Crowd {
             .unwrap_or_else(|| Judge::new(Tolerances::issue_limits(), f32::INFINITY).finish());
         let gait = GaitReport::aggregate(rows.iter().map(|r| &r.4));
         let stuck_ids: Vec<u32> = rows.iter().filter(|r| r.5).map(|r| r.0).collect();
+        let roaming = self.roaming();
         let reports = || rows.iter().map(|r| (r.0, &r.3));
         let worst_sloths = WorstSloths {
             max_grip_slip: worst_by(reports(), |j| j.max_grip_slip_m),
@@ -651,10 +699,44 @@ impl Crowd {
             stuck_sloths: stuck_ids.len() as u32,
             stuck_ids: stuck_ids.into_iter().take(100).collect(),
             turn_backs: rows.iter().map(|r| r.2 as u64).sum(),
+            roaming,
             worst_sloths,
             gait,
             judge,
         }
+    }
+
+    /// Coverage of the forest by the crowd (see [`Roaming`]).
+    fn roaming(&mut self) -> Roaming {
+        let scene = self.world.resource::<Locomotion>().traces.scene();
+        let n = scene.supports().len();
+        let kinds: Vec<SupportKind> = scene.supports().iter().map(|s| s.kind).collect();
+        let mut visited = vec![false; n];
+        let mut climbed = vec![false; n];
+        let mut r = Roaming {
+            supports: n as u32,
+            ..Roaming::default()
+        };
+        let (mut frames, mut trunk_frames, mut per_sloth) = (0u64, 0u64, 0u64);
+        let mut sloths = 0u32;
+        let mut q = self.world.query::<&Observer>();
+        for o in q.iter(&self.world) {
+            sloths += 1;
+            per_sloth += o.visited.len() as u64;
+            for &sid in &o.visited {
+                visited[sid.0 as usize] = true;
+                climbed[sid.0 as usize] = kinds[sid.0 as usize] == SupportKind::Trunk;
+            }
+            frames += o.frames;
+            trunk_frames += o.trunk_frames;
+            r.branch_trunk_changes += u64::from(o.kind_changes);
+            r.sloths_changing_kind += u32::from(o.kind_changes > 0);
+        }
+        r.supports_visited = visited.iter().filter(|&&v| v).count() as u32;
+        r.trunks_climbed = climbed.iter().filter(|&&v| v).count() as u32;
+        r.supports_per_sloth_mean = per_sloth as f32 / sloths.max(1) as f32;
+        r.trunk_frame_share = trunk_frames as f32 / frames.max(1) as f32;
+        r
     }
 
     /// How many limbs are swinging right now (for progress lines).
