@@ -111,9 +111,8 @@ impl CrowdNeighbours {
         sloths: impl Iterator<Item = (u32, &'a Sloth)>,
     ) {
         let rig = &loco.rig;
-        self.grid.rebuild(
-            sloths.flat_map(|(id, s)| crowd_points(rig, s).into_iter().map(move |p| (id, p))),
-        );
+        self.grid
+            .rebuild_groups(sloths.map(|(id, s)| (id, crowd_points(rig, s))));
     }
 }
 
