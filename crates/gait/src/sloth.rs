@@ -1526,7 +1526,7 @@ impl Sloth {
                 l.settled_ls = (r.error > params.tolerance).then_some(targets_ls[li]);
             }
             l.root = root.position.into();
-            l.effector = w.rig.chains[li].fk(root, &l.pose)[4];
+            l.effector = w.rig.chains[li].fk_effector(root, &l.pose);
         }
         iterations
     }
