@@ -86,9 +86,11 @@ pub(crate) fn segment_chunks(s: &Support) -> Vec<SegmentChunk> {
             let run = k * SEGMENT_CHUNK..((k + 1) * SEGMENT_CHUNK).min(segments);
             let mid = |i: usize| (s.nodes[i] + s.nodes[i + 1]) * 0.5;
             let half = |i: usize| s.nodes[i].distance(s.nodes[i + 1]) * 0.5;
-            let (lo, hi) = run.clone().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), i| {
-                (lo.min(mid(i)), hi.max(mid(i)))
-            });
+            let (lo, hi) = run
+                .clone()
+                .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), i| {
+                    (lo.min(mid(i)), hi.max(mid(i)))
+                });
             let centre = (lo + hi) * 0.5;
             let radius = run
                 .clone()

@@ -513,7 +513,10 @@ fn ccd_sweeps(
         err_sq,
         reach_step: params.reach_step,
     };
-    (sweep_loop(chain, target, pose, params, frames, from), start_err)
+    (
+        sweep_loop(chain, target, pose, params, frames, from),
+        start_err,
+    )
 }
 
 /// The sweeps of [`ccd_sweeps`] from `from` (`frames`: those of `pose`), then the

@@ -1083,7 +1083,9 @@ fn run4(
             tests::SCALAR_LANES.with(|n| n.set(n.get() + 1));
             let start_err = h.start_err[i];
             let resume = |pose: &mut ChainPose, from: SweepFrom| {
-                resume_local_dispatch(chains[i], local[i], &start[i], start_err, pose, params, from)
+                resume_local_dispatch(
+                    chains[i], local[i], &start[i], start_err, pose, params, from,
+                )
             };
             results[i] = if h.stall.test(i) {
                 // The scalar solve undoes the stalled sweep and goes on without

@@ -255,7 +255,10 @@ mod tests {
                 );
                 let a = chain.fk(root, &pose)[4];
                 let b = chain.fk_effector(root, &pose);
-                assert_eq!(a.to_array().map(f32::to_bits), b.to_array().map(f32::to_bits));
+                assert_eq!(
+                    a.to_array().map(f32::to_bits),
+                    b.to_array().map(f32::to_bits)
+                );
             }
         }
     }
