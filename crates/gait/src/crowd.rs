@@ -34,7 +34,11 @@ pub struct CrowdGrid {
 #[inline(always)]
 fn floor_i32(x: f32) -> i32 {
     let t = x as i32;
-    if (t as f32) > x { t.saturating_sub(1) } else { t }
+    if (t as f32) > x {
+        t.saturating_sub(1)
+    } else {
+        t
+    }
 }
 
 fn cell_of(p: Vec3, inv_cell: f32) -> IVec3 {
@@ -42,12 +46,25 @@ fn cell_of(p: Vec3, inv_cell: f32) -> IVec3 {
     IVec3::new(floor_i32(q.x), floor_i32(q.y), floor_i32(q.z))
 }
 
-fn bucket(c: IVec3, mask: u32) -> u32 {
+fn cell_hash(c: IVec3) -> u32 {
     // Three large primes (Teschner et al. 2003), wrapping.
-    let h = (c.x as u32).wrapping_mul(73_856_093)
+    (c.x as u32).wrapping_mul(73_856_093)
         ^ (c.y as u32).wrapping_mul(19_349_663)
-        ^ (c.z as u32).wrapping_mul(83_492_791);
-    h & mask
+        ^ (c.z as u32).wrapping_mul(83_492_791)
+}
+
+fn bucket(c: IVec3, mask: u32) -> u32 {
+    cell_hash(c) & mask
+}
+
+/// A point with the hash of its grid cell (before the bucket mask): what
+/// [`CrowdGrid::rebuild_hashed`] takes, so the hashing can run in parallel.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct HashedPoint {
+    /// Cell hash, see [`CrowdGrid::hashed`].
+    pub hash: u32,
+    /// The point.
+    pub point: Vec3,
 }
 
 impl CrowdGrid {
@@ -104,14 +121,48 @@ impl CrowdGrid {
         self.sort_staging();
     }
 
+    /// `p` with its cell hash for [`CrowdGrid::rebuild_hashed`] (this grid's cell size).
+    #[inline]
+    pub fn hashed(&self, p: Vec3) -> HashedPoint {
+        HashedPoint {
+            hash: cell_hash(cell_of(p, 1.0 / self.cell)),
+            point: p,
+        }
+    }
+
+    /// [`CrowdGrid::rebuild_groups`] from points already hashed by
+    /// [`CrowdGrid::hashed`] (the same grid): only the counting sort is left.
+    pub fn rebuild_hashed<'a, const K: usize>(
+        &mut self,
+        groups: impl IntoIterator<Item = (u32, &'a [HashedPoint; K])>,
+    ) {
+        self.staging.clear();
+        for (o, pts) in groups {
+            for hp in pts {
+                if hp.point.is_finite() {
+                    self.staging.push((hp.hash, o, hp.point));
+                }
+            }
+        }
+        self.mask_and_sort();
+    }
+
     /// The counting sort of `staging` into buckets (order kept within a bucket).
     fn sort_staging(&mut self) {
         let inv = 1.0 / self.cell;
+        for e in &mut self.staging {
+            e.0 = cell_hash(cell_of(e.2, inv));
+        }
+        self.mask_and_sort();
+    }
+
+    /// The counting sort of `staging` (cell hashes in `.0`) into buckets.
+    fn mask_and_sort(&mut self) {
         let n = self.staging.len();
         let buckets = (n * 2).next_power_of_two().max(64);
         self.mask = buckets as u32 - 1;
         for e in &mut self.staging {
-            e.0 = bucket(cell_of(e.2, inv), self.mask);
+            e.0 &= self.mask;
         }
         self.starts.clear();
         self.starts.resize(buckets + 1, 0);
@@ -241,7 +292,11 @@ mod tests {
                     [
                         Vec3::new(f * 0.37 - 9.0, f * -0.11, 0.2 * f),
                         Vec3::new(-f * 0.05, f.sin(), f.cos()),
-                        if i == 7 { Vec3::NAN } else { Vec3::splat(f * 0.01) },
+                        if i == 7 {
+                            Vec3::NAN
+                        } else {
+                            Vec3::splat(f * 0.01)
+                        },
                     ],
                 )
             })
@@ -252,6 +307,14 @@ mod tests {
         b.rebuild_groups(groups.iter().copied());
         assert_eq!(a.starts, b.starts);
         assert_eq!(a.entries, b.entries);
+        let hashed: Vec<(u32, [HashedPoint; 3])> = groups
+            .iter()
+            .map(|&(o, ps)| (o, ps.map(|p| b.hashed(p))))
+            .collect();
+        let mut c = CrowdGrid::new(0.3);
+        c.rebuild_hashed(hashed.iter().map(|(o, ps)| (*o, ps)));
+        assert_eq!(a.starts, c.starts);
+        assert_eq!(a.entries, c.entries);
     }
 
     #[test]
