@@ -15,7 +15,7 @@ pub mod rigdata;
 pub mod sloth;
 
 pub use config::{ConfigError, LocomotionConfig, Profile, Sequence};
-pub use crowd::CrowdGrid;
+pub use crowd::{CrowdGrid, HashedPoint};
 pub use path::{Adjacency, AxisPoint, axis_at, project};
 pub use rigdata::RigData;
 pub use sloth::{Grip, LimbPhase, LimbState, Sloth, SpawnHint, Status, TraceBatch, World};

@@ -59,6 +59,54 @@ pub fn project(s: &Support, p: Vec3) -> AxisPoint {
 #[derive(Clone, Debug, Default)]
 pub struct Adjacency {
     lists: Vec<Vec<SupportId>>,
+    /// Per support, bounds of its axis segments in runs of [`SEGMENT_CHUNK`].
+    chunks: Vec<Vec<SegmentChunk>>,
+}
+
+/// Axis segments per [`SegmentChunk`].
+pub(crate) const SEGMENT_CHUNK: usize = 8;
+
+/// A sphere holding the bounding spheres (midpoint, half length) of a run of
+/// axis segments, and the run's largest radius: lets a distance test rule
+/// out the whole run before testing its segments.
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct SegmentChunk {
+    /// Centre.
+    pub(crate) centre: Vec3,
+    /// Radius: the largest `|midpoint − centre| + half length` of the run.
+    pub(crate) radius: f32,
+    /// Largest support radius at the run's nodes.
+    pub(crate) max_radius: f32,
+}
+
+pub(crate) fn segment_chunks(s: &Support) -> Vec<SegmentChunk> {
+    let segments = s.nodes.len().saturating_sub(1);
+    (0..segments.div_ceil(SEGMENT_CHUNK))
+        .map(|k| {
+            let run = k * SEGMENT_CHUNK..((k + 1) * SEGMENT_CHUNK).min(segments);
+            let mid = |i: usize| (s.nodes[i] + s.nodes[i + 1]) * 0.5;
+            let half = |i: usize| s.nodes[i].distance(s.nodes[i + 1]) * 0.5;
+            let (lo, hi) = run
+                .clone()
+                .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), i| {
+                    (lo.min(mid(i)), hi.max(mid(i)))
+                });
+            let centre = (lo + hi) * 0.5;
+            let radius = run
+                .clone()
+                .map(|i| mid(i).distance(centre) + half(i))
+                .fold(0.0, f32::max);
+            let max_radius = s.radii[run.start..=run.end]
+                .iter()
+                .copied()
+                .fold(0.0, f32::max);
+            SegmentChunk {
+                centre,
+                radius,
+                max_radius,
+            }
+        })
+        .collect()
 }
 
 impl Adjacency {
@@ -87,7 +135,14 @@ impl Adjacency {
             near.dedup();
             lists[s.id.0 as usize] = near;
         }
-        Adjacency { lists }
+        let chunks = scene.supports().iter().map(segment_chunks).collect();
+        Adjacency { lists, chunks }
+    }
+
+    /// Bounds of a support's axis segments in runs of [`SEGMENT_CHUNK`]
+    /// (empty for an unknown support).
+    pub(crate) fn segment_chunks(&self, id: SupportId) -> &[SegmentChunk] {
+        self.chunks.get(id.0 as usize).map_or(&[], |v| v.as_slice())
     }
 
     /// Neighbours of a support, sorted by id.

@@ -25,7 +25,7 @@ use slothsim_scene::{
 use crate::config::LocomotionConfig;
 use crate::crowd::CrowdGrid;
 use crate::observe::{LimbObservation, SlothObservation};
-use crate::path::{Adjacency, axis_at, project};
+use crate::path::{Adjacency, SEGMENT_CHUNK, SegmentChunk, axis_at, project};
 use crate::rigdata::{BODY_RADIUS, RigData};
 
 /// Trace slots per sloth per frame.
@@ -895,8 +895,14 @@ impl Sloth {
     fn body_penetrates(&self, w: &World<'_>, pos: Vec3, rot: Quat) -> bool {
         let scene = w.scene();
         let torso = [pos + rot * w.rig.torso_ms[0], pos + rot * w.rig.torso_ms[1]];
-        self.near_supports(w)
-            .any(|id| torso_penetrates(scene.support(id), torso, STANCE_MAX_PENETRATION))
+        self.near_supports(w).any(|id| {
+            torso_penetrates(
+                scene.support(id),
+                w.adjacency.segment_chunks(id),
+                torso,
+                STANCE_MAX_PENETRATION,
+            )
+        })
     }
 
     /// The supports the limbs hold (each once) and their neighbours: where
@@ -1665,7 +1671,7 @@ impl Sloth {
                 l.settled_ls = (r.error > params.tolerance).then_some(targets_ls[li]);
             }
             l.root = root.position.into();
-            l.effector = w.rig.chains[li].fk(root, &l.pose)[4];
+            l.effector = w.rig.chains[li].fk_effector(root, &l.pose);
         }
         iterations
     }
@@ -1774,15 +1780,26 @@ impl Sloth {
 
 /// Whether the torso capsule enters a support deeper than `depth`: the same
 /// as `torso_penetration(s, torso, depth) > depth`, returning at the first
-/// such segment.
-fn torso_penetrates(s: &slothsim_scene::Support, torso: [Vec3; 2], depth: f32) -> bool {
+/// such segment. Runs of segments whose `chunks` bound (see
+/// [`SegmentChunk`]) rules out every segment's [`TorsoBound::may_exceed`]
+/// are skipped whole; without bounds (`chunks` not matching `s`) every
+/// segment is tested.
+fn torso_penetrates(
+    s: &slothsim_scene::Support,
+    chunks: &[SegmentChunk],
+    torso: [Vec3; 2],
+    depth: f32,
+) -> bool {
     let bound = TorsoBound::new(torso);
-    for i in 0..s.nodes.len().saturating_sub(1) {
-        if bound.may_exceed(s, i, depth) && segment_depth(s, i, torso) > depth {
-            return true;
-        }
+    let segments = s.nodes.len().saturating_sub(1);
+    let hit = |i: usize| bound.may_exceed(s, i, depth) && segment_depth(s, i, torso) > depth;
+    if chunks.len() != segments.div_ceil(SEGMENT_CHUNK) {
+        return (0..segments).any(hit);
     }
-    false
+    chunks.iter().enumerate().any(|(k, c)| {
+        bound.may_reach_chunk(c, depth)
+            && (k * SEGMENT_CHUNK..((k + 1) * SEGMENT_CHUNK).min(segments)).any(hit)
+    })
 }
 
 /// Deepest penetration of the torso capsule (radius [`BODY_RADIUS`]) into a
@@ -1830,6 +1847,16 @@ impl TorsoBound {
         let reach = BODY_RADIUS + s.radii[i].max(s.radii[i + 1]) - depth + self.half + k + 1e-4;
         reach > 0.0 && self.centre.distance_squared(c) <= reach * reach
     }
+
+    /// False only if [`TorsoBound::may_exceed`] is false for every segment of
+    /// the run `chunk` bounds. Segment `i`'s test distance is at most
+    /// `BODY_RADIUS + max_radius − depth + half + k_i + 1e-4`, and its
+    /// midpoint lies within `chunk.radius − k_i` of the chunk's centre, so
+    /// beyond this sphere (1 mm more for rounding) no segment passes.
+    fn may_reach_chunk(&self, chunk: &SegmentChunk, depth: f32) -> bool {
+        let reach = chunk.radius + BODY_RADIUS + chunk.max_radius - depth + self.half + 1e-4 + 1e-3;
+        reach <= 0.0 || self.centre.distance_squared(chunk.centre) <= reach * reach
+    }
 }
 
 /// Distance between segments p0–p1 and q0–q1, and the parameter on q.
@@ -1873,4 +1900,50 @@ fn segment_distance(p0: Vec3, p1: Vec3, q0: Vec3, q1: Vec3) -> (f32, f32) {
         }
     }
     ((p0 + d1 * s).distance(q0 + d2 * t), t)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The chunk bounds only skip segments that could not count: the same
+    /// answer as testing every segment, on random polylines and torsos.
+    #[test]
+    fn chunked_torso_penetrates_matches_every_segment() {
+        let mut s = 0xfeed_u64;
+        let mut rnd = || {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            (s >> 40) as f32 / (1u64 << 24) as f32
+        };
+        let mut hits = 0;
+        for n in [2usize, 3, 8, 9, 17, 40] {
+            for _ in 0..60 {
+                let mut p = Vec3::new(rnd() * 20.0, rnd() * 10.0, rnd() * 20.0);
+                let mut nodes = Vec::new();
+                let mut radii = Vec::new();
+                for _ in 0..n {
+                    nodes.push(p);
+                    radii.push(0.02 + rnd() * 0.3);
+                    p += Vec3::new(rnd() - 0.5, rnd() * 0.6 - 0.2, rnd() - 0.5) * 0.8;
+                }
+                let sup = slothsim_scene::Support::new(nodes.clone(), radii);
+                let chunks = crate::path::segment_chunks(&sup);
+                for _ in 0..200 {
+                    let k = (rnd() * (n - 1) as f32) as usize;
+                    let near = nodes[k].lerp(nodes[k + 1], rnd());
+                    let c = near + Vec3::new(rnd() - 0.5, rnd() - 0.5, rnd() - 0.5) * 1.5;
+                    let d = Vec3::new(rnd() - 0.5, rnd() - 0.5, rnd() - 0.5) * 0.6;
+                    let torso = [c - d, c + d];
+                    for depth in [-0.2, 0.0, STANCE_MAX_PENETRATION, 0.05] {
+                        let all = torso_penetrates(&sup, &[], torso, depth);
+                        assert_eq!(all, torso_penetrates(&sup, &chunks, torso, depth));
+                        hits += usize::from(all);
+                    }
+                }
+            }
+        }
+        assert!(hits > 100, "{hits}");
+    }
 }

@@ -306,14 +306,125 @@ fn solve_local(
 ) -> CcdResult {
     let start = *pose;
     let (result, start_err) = ccd_sweeps(chain, target, pose, params);
+    smooth_guard(chain, target, &start, start_err, pose, params, result)
+}
+
+/// The smoothness guard of [`solve_local`] on the sweeps' `result` (`start`: the
+/// warm start, `start_err`: its error).
+#[inline(always)]
+pub(crate) fn smooth_guard(
+    chain: &LimbChain,
+    target: Vec3A,
+    start: &ChainPose,
+    start_err: f32,
+    pose: &mut ChainPose,
+    params: &CcdParams,
+    result: CcdResult,
+) -> CcdResult {
     if result.iterations == 0
         || !params.refine
         || start_err > SMOOTH_TRIGGER_DIST
-        || max_joint_cos_half(&start, pose) >= SMOOTH_COS_HALF
+        || max_joint_cos_half(start, pose) >= SMOOTH_COS_HALF
     {
         return result;
     }
-    smooth_retry(chain, target, &start, pose, params, result)
+    smooth_retry(chain, target, start, pose, params, result)
+}
+
+/// Where the sweeps of [`solve_local`] stood when the vector solver handed a lane
+/// over (see `ccd4`): the sweep to run next, the error before the last kept sweep,
+/// the current squared error and whether reach steps are still on. `pose` holds the
+/// pose at that point.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct SweepFrom {
+    pub(crate) iter: u32,
+    pub(crate) prev_err: f32,
+    pub(crate) err_sq: f32,
+    pub(crate) reach_step: bool,
+}
+
+/// [`solve_local`] continued from `from` (the same sweeps, polish and smoothness
+/// guard as an uninterrupted solve from `start`, whose error was `start_err`).
+/// [`resume_local_avx2`] where the CPU has AVX2.
+#[inline(always)]
+pub(crate) fn resume_local_dispatch(
+    chain: &LimbChain,
+    target: Vec3A,
+    start: &ChainPose,
+    start_err: f32,
+    pose: &mut ChainPose,
+    params: &CcdParams,
+    from: SweepFrom,
+) -> CcdResult {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        // SAFETY: the CPU has AVX2 (checked just above).
+        return unsafe { resume_local_avx2(chain, target, start, start_err, pose, params, from) };
+    }
+    resume_local(chain, target, start, start_err, pose, params, from)
+}
+
+/// [`resume_local`] compiled with AVX2 (see [`solve_local_avx2`]).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn resume_local_avx2(
+    chain: &LimbChain,
+    target: Vec3A,
+    start: &ChainPose,
+    start_err: f32,
+    pose: &mut ChainPose,
+    params: &CcdParams,
+    from: SweepFrom,
+) -> CcdResult {
+    resume_local(chain, target, start, start_err, pose, params, from)
+}
+
+#[inline(always)]
+fn resume_local(
+    chain: &LimbChain,
+    target: Vec3A,
+    start: &ChainPose,
+    start_err: f32,
+    pose: &mut ChainPose,
+    params: &CcdParams,
+    from: SweepFrom,
+) -> CcdResult {
+    let frames = Frames::new(chain, pose);
+    let result = sweep_loop(chain, target, pose, params, frames, from);
+    smooth_guard(chain, target, start, start_err, pose, params, result)
+}
+
+/// [`smooth_guard`] where the CPU has AVX2 (see [`solve_local_avx2`]).
+#[inline(always)]
+pub(crate) fn smooth_guard_dispatch(
+    chain: &LimbChain,
+    target: Vec3A,
+    start: &ChainPose,
+    start_err: f32,
+    pose: &mut ChainPose,
+    params: &CcdParams,
+    result: CcdResult,
+) -> CcdResult {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        // SAFETY: the CPU has AVX2 (checked just above).
+        return unsafe { smooth_guard_avx2(chain, target, start, start_err, pose, params, result) };
+    }
+    smooth_guard(chain, target, start, start_err, pose, params, result)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn smooth_guard_avx2(
+    chain: &LimbChain,
+    target: Vec3A,
+    start: &ChainPose,
+    start_err: f32,
+    pose: &mut ChainPose,
+    params: &CcdParams,
+    result: CcdResult,
+) -> CcdResult {
+    smooth_guard(chain, target, start, start_err, pose, params, result)
 }
 
 /// Target moves up to this far (metres) count as frame-to-frame tracking.
@@ -383,9 +494,9 @@ fn ccd_sweeps(
     pose: &mut ChainPose,
     params: &CcdParams,
 ) -> (CcdResult, f32) {
-    let mut frames = Frames::new(chain, pose);
+    let frames = Frames::new(chain, pose);
     let tol_sq = params.tolerance * params.tolerance;
-    let mut err_sq = frames.pos[4].distance_squared(target);
+    let err_sq = frames.pos[4].distance_squared(target);
     let start_err = err_sq.sqrt();
     if err_sq <= tol_sq {
         let r = CcdResult {
@@ -396,14 +507,39 @@ fn ccd_sweeps(
         };
         return (r, start_err);
     }
+    let from = SweepFrom {
+        iter: 0,
+        prev_err: start_err,
+        err_sq,
+        reach_step: params.reach_step,
+    };
+    (
+        sweep_loop(chain, target, pose, params, frames, from),
+        start_err,
+    )
+}
+
+/// The sweeps of [`ccd_sweeps`] from `from` (`frames`: those of `pose`), then the
+/// stall polish.
+#[inline(always)]
+fn sweep_loop(
+    chain: &LimbChain,
+    target: Vec3A,
+    pose: &mut ChainPose,
+    params: &CcdParams,
+    mut frames: Frames,
+    from: SweepFrom,
+) -> CcdResult {
+    let tol_sq = params.tolerance * params.tolerance;
+    let mut err_sq = from.err_sq;
     let cap = StepCap::new(params.max_step_angle);
     let limits = prepare_limits(&chain.limits);
     let tail_first = params.order == CcdOrder::TailFirst;
-    let mut prev_err = start_err;
-    let mut reach_step = params.reach_step;
+    let mut prev_err = from.prev_err;
+    let mut reach_step = from.reach_step;
     let mut frames_stale = false;
     let mut mid_saturated = false;
-    for iter in 0..params.max_iterations {
+    for iter in from.iter..params.max_iterations {
         if frames_stale {
             frames = Frames::new(chain, pose);
             frames_stale = false;
@@ -439,7 +575,7 @@ fn ccd_sweeps(
                     iterations: iter + 1,
                     status: CcdStatus::Reached,
                 };
-                return (r, start_err);
+                return r;
             }
         }
         let err = err_sq.sqrt();
@@ -456,7 +592,7 @@ fn ccd_sweeps(
                 reach_step = false;
                 continue;
             }
-            let r = polish(
+            return polish(
                 chain,
                 target,
                 pose,
@@ -465,12 +601,11 @@ fn ccd_sweeps(
                 iter + 1,
                 CcdStatus::Stalled,
             );
-            return (r, start_err);
         }
         prev_err = err;
     }
     let err = err_sq.sqrt();
-    let r = polish(
+    polish(
         chain,
         target,
         pose,
@@ -478,8 +613,7 @@ fn ccd_sweeps(
         err,
         params.max_iterations,
         CcdStatus::MaxIterations,
-    );
-    (r, start_err)
+    )
 }
 
 /// CCD stopped short of the target (`error` > tolerance): if the target is within the

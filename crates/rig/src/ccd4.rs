@@ -15,15 +15,18 @@
 //! whose ball clamp did not act, and solves that reach the tolerance. A lane that
 //! leaves that path (a sweep that does not improve, a ball joint clamped, a hinge
 //! warm start with an off-axis part, the smoothness guard or the stall polish, the
-//! sweep limit) is solved again from its start pose by the scalar solver, which is
-//! deterministic, so its result is exactly the scalar one as well. Other chain
+//! sweep limit) is finished by the scalar solver, which is deterministic, so its
+//! result is exactly the scalar one as well: from the point the scalar solve would
+//! be at where that point is a state the vector path holds too (a stalled sweep:
+//! from the pose before it, reach steps off; out of sweeps: the polish; the
+//! smoothness guard: its retry), else again from its start pose. Other chain
 //! layouts or parameters go through the scalar solver limb by limb.
 
 use glam::{BVec4A, Mat4, Quat, Vec3, Vec3A, Vec4};
 
 use crate::ccd::{
     CcdOrder, CcdParams, CcdResult, CcdStatus, SMOOTH_COS_HALF, SMOOTH_TRIGGER_DIST, StepCap,
-    solve_local_dispatch,
+    SweepFrom, resume_local_dispatch, smooth_guard_dispatch, solve_local_dispatch,
 };
 use crate::chain::{CHAIN_JOINTS, ChainPose, LimbChain, RootTransform};
 use crate::limits::{JointLimit, half_sin_cos4};
@@ -673,6 +676,27 @@ struct Lanes {
     iterations: F,
 }
 
+/// Where the scalar solver takes over a lane that left the vector path at a point
+/// the scalar solve passes through as well (so only the rest is solved again):
+#[derive(Clone, Copy)]
+struct Handover {
+    /// A sweep that did not improve (the scalar solver undoes it and goes on
+    /// without reach steps)…
+    stall: M,
+    /// …from the pose before that sweep,
+    stall_pose: [Q; CHAIN_JOINTS],
+    /// the error before that sweep,
+    stall_prev_err: F,
+    /// and the sweep's index (small integers, exact in `f32`).
+    stall_iter: F,
+    /// Out of sweeps (the scalar solver polishes from the final pose).
+    out_of_sweeps: M,
+    /// Reached, but the smoothness guard retries (from the final pose).
+    smooth: M,
+    /// The error at the warm start.
+    start_err: F,
+}
+
 impl Lanes {
     /// Lanes in `m` (active ones) finished after `iterations` sweeps.
     #[inline(always)]
@@ -685,8 +709,14 @@ impl Lanes {
 /// The vector path (see the module docs); returns the lanes the scalar solver must
 /// redo, and the sweep counts of the others (all `Reached`).
 #[inline(always)]
-fn sweeps4(c: &Chains4, target: V, pose: &mut [Q; CHAIN_JOINTS], params: &CcdParams) -> (M, F, F) {
+fn sweeps4(
+    c: &Chains4,
+    target: V,
+    pose: &mut [Q; CHAIN_JOINTS],
+    params: &CcdParams,
+) -> (M, F, F, Handover) {
     let start = *pose;
+    let none = M::new(false, false, false, false);
     let mut frames = Frames4::new(c, pose);
     let tol_sq = splat(params.tolerance * params.tolerance);
     let mut err_sq = frames.pos[4].sub(target).length_squared();
@@ -698,6 +728,15 @@ fn sweeps4(c: &Chains4, target: V, pose: &mut [Q; CHAIN_JOINTS], params: &CcdPar
         iterations: F::ZERO,
     };
     lanes.finish(at_start, 0);
+    let mut handover = Handover {
+        stall: none,
+        stall_pose: start,
+        stall_prev_err: F::ZERO,
+        stall_iter: F::ZERO,
+        out_of_sweeps: none,
+        smooth: none,
+        start_err,
+    };
     let cap = StepCap::new(params.max_step_angle);
     let cap = Cap4 {
         cos: splat(cap.cos),
@@ -712,6 +751,7 @@ fn sweeps4(c: &Chains4, target: V, pose: &mut [Q; CHAIN_JOINTS], params: &CcdPar
         if iter == params.max_iterations {
             // Out of sweeps: the scalar solver's stall polish decides.
             lanes.scalar |= lanes.active;
+            handover.out_of_sweeps = lanes.active;
             #[cfg(test)]
             tests::note(5, lanes.active);
             break;
@@ -719,6 +759,7 @@ fn sweeps4(c: &Chains4, target: V, pose: &mut [Q; CHAIN_JOINTS], params: &CcdPar
         if iter > 0 {
             frames = Frames4::new(c, pose);
         }
+        let sweep_start = *pose;
         for j in (0..CHAIN_JOINTS).rev() {
             let joint_pos = frames.pos[j];
             let e = frames.pos[4].sub(joint_pos);
@@ -808,6 +849,14 @@ fn sweeps4(c: &Chains4, target: V, pose: &mut [Q; CHAIN_JOINTS], params: &CcdPar
         let err = sqrt(err_sq);
         let stalled = lanes.active & (prev_err - err).cmplt(min_improvement);
         lanes.scalar |= stalled;
+        if stalled.any() {
+            for j in 0..CHAIN_JOINTS {
+                handover.stall_pose[j] = Q::select(stalled, sweep_start[j], handover.stall_pose[j]);
+            }
+            handover.stall_prev_err = sel(stalled, prev_err, handover.stall_prev_err);
+            handover.stall_iter = sel(stalled, splat(iter as f32), handover.stall_iter);
+            handover.stall |= stalled;
+        }
         #[cfg(test)]
         tests::note(3, stalled);
         lanes.active &= !stalled;
@@ -827,10 +876,11 @@ fn sweeps4(c: &Chains4, target: V, pose: &mut [Q; CHAIN_JOINTS], params: &CcdPar
             & start_err.cmple(splat(SMOOTH_TRIGGER_DIST))
             & cos_half.cmplt(splat(SMOOTH_COS_HALF));
         lanes.scalar |= retry;
+        handover.smooth = retry;
         #[cfg(test)]
         tests::note(4, retry);
     }
-    (lanes.scalar, lanes.iterations, err_sq)
+    (lanes.scalar, lanes.iterations, err_sq, handover)
 }
 
 /// `(m ? a : b)` on masks.
@@ -1019,7 +1069,7 @@ fn run4(
         *q = Q::gather(p0.0[j], p1.0[j], p2.0[j], p3.0[j]);
     }
     let target = V::gather(local[0], local[1], local[2], local[3]);
-    let (scalar, iterations, err_sq) = sweeps4(c, target, &mut pose, params);
+    let (scalar, iterations, err_sq, h) = sweeps4(c, target, &mut pose, params);
     let error = sqrt(err_sq);
     for (j, q) in pose.iter().enumerate() {
         for (p, q) in poses.iter_mut().zip(q.scatter()) {
@@ -1031,8 +1081,55 @@ fn run4(
         if scalar.test(i) {
             #[cfg(test)]
             tests::SCALAR_LANES.with(|n| n.set(n.get() + 1));
-            poses[i] = start[i];
-            results[i] = solve_local_dispatch(chains[i], local[i], &mut poses[i], params);
+            let start_err = h.start_err[i];
+            let resume = |pose: &mut ChainPose, from: SweepFrom| {
+                resume_local_dispatch(
+                    chains[i], local[i], &start[i], start_err, pose, params, from,
+                )
+            };
+            results[i] = if h.stall.test(i) {
+                // The scalar solve undoes the stalled sweep and goes on without
+                // reach steps from the next one.
+                for j in 0..CHAIN_JOINTS {
+                    poses[i].0[j] = h.stall_pose[j].scatter()[i];
+                }
+                let prev_err = h.stall_prev_err[i];
+                let from = SweepFrom {
+                    iter: h.stall_iter[i] as u32 + 1,
+                    prev_err,
+                    err_sq: prev_err * prev_err,
+                    reach_step: false,
+                };
+                resume(&mut poses[i], from)
+            } else if h.out_of_sweeps.test(i) {
+                // No sweep left: the scalar solve polishes from this pose.
+                let from = SweepFrom {
+                    iter: params.max_iterations,
+                    prev_err: error[i],
+                    err_sq: err_sq[i],
+                    reach_step: true,
+                };
+                resume(&mut poses[i], from)
+            } else if h.smooth.test(i) {
+                let reached = CcdResult {
+                    reached: true,
+                    error: error[i],
+                    iterations: iterations[i] as u32,
+                    status: CcdStatus::Reached,
+                };
+                smooth_guard_dispatch(
+                    chains[i],
+                    local[i],
+                    &start[i],
+                    start_err,
+                    &mut poses[i],
+                    params,
+                    reached,
+                )
+            } else {
+                poses[i] = start[i];
+                solve_local_dispatch(chains[i], local[i], &mut poses[i], params)
+            };
         } else {
             results[i] = CcdResult {
                 reached: true,

@@ -171,6 +171,15 @@ impl LimbChain {
         pos.map(|p| Vec3::from(root.transform_point(p)))
     }
 
+    /// The effector of [`LimbChain::fk`] (its index 4), bit for bit, without
+    /// moving the joints to world space.
+    #[inline]
+    pub fn fk_effector(&self, root_ws: impl Into<RootTransform>, pose: &ChainPose) -> Vec3 {
+        let root = root_ws.into();
+        let (pos, _) = self.fk_local(pose);
+        Vec3::from(root.transform_point(pos[4]))
+    }
+
     /// Forward kinematics in the chain-root frame: joint/effector positions and the
     /// joint rotations (root-relative).
     #[inline]
@@ -218,5 +227,39 @@ impl LimbChain {
     /// write back into a [`crate::Skeleton::fk`] `locals` buffer.
     pub fn local_rotation(&self, pose: &ChainPose, i: usize) -> Quat {
         self.rest[i] * pose.0[i]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::Rig;
+
+    #[test]
+    fn fk_effector_is_fk_index_4_bit_for_bit() {
+        let rig = Rig::sloth();
+        let mut s = 0x1234_5678_u64;
+        let mut rnd = || {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            (s >> 40) as f32 / (1u64 << 24) as f32
+        };
+        for chain in rig.chains() {
+            for _ in 0..500 {
+                let u: [f32; 12] = std::array::from_fn(|_| rnd());
+                let pose = chain.sample_pose(&u);
+                let root = RootTransform::new(
+                    Vec3::new(rnd() * 40.0 - 20.0, rnd() * 30.0, rnd() * 40.0 - 20.0),
+                    Quat::from_euler(glam::EulerRot::YXZ, rnd() * 6.0, rnd() * 3.0, rnd()),
+                );
+                let a = chain.fk(root, &pose)[4];
+                let b = chain.fk_effector(root, &pose);
+                assert_eq!(
+                    a.to_array().map(f32::to_bits),
+                    b.to_array().map(f32::to_bits)
+                );
+            }
+        }
     }
 }

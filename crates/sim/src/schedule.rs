@@ -14,7 +14,9 @@ use bevy_ecs::prelude::*;
 use bevy_ecs::schedule::SingleThreadedExecutor;
 use bevy_tasks::{ComputeTaskPool, TaskPoolBuilder};
 
-use crate::world::{CrowdNeighbours, Locomotion, SimClock, SlothId, SlothState, Traces};
+use crate::world::{
+    CrowdNeighbours, CrowdPoints, Locomotion, SimClock, SlothId, SlothState, Traces, crowd_points,
+};
 
 /// The stages of one tick, in order.
 #[derive(SystemSet, Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -124,19 +126,29 @@ fn transitions_stage(
     loco: Res<Locomotion>,
     mut crowd: Option<ResMut<CrowdNeighbours>>,
     mut clock: ResMut<SimClock>,
-    mut q: Query<(&SlothId, &mut SlothState, &mut Traces)>,
+    mut q: Query<(&SlothId, &mut SlothState, &mut Traces, &mut CrowdPoints)>,
     mut timings: ResMut<StageTimings>,
 ) {
     let t = Instant::now();
     let dt = clock.dt;
     {
         let w = loco.view_in(crowd.as_deref());
-        q.par_iter_mut()
-            .for_each(|(_, mut s, mut tr)| s.0.transitions(&w, dt, &mut tr.0));
+        let grid = w.crowd;
+        let rig = &loco.rig;
+        q.par_iter_mut().for_each(|(_, mut s, mut tr, mut pts)| {
+            s.0.transitions(&w, dt, &mut tr.0);
+            // The neighbour grid's points, hashed here in parallel.
+            if let Some(g) = grid {
+                pts.0 = crowd_points(rig, &s.0).map(|p| g.hashed(p));
+            }
+        });
     }
     // Sloths meet sloths: the next tick reads this tick's bodies and grips.
+    // The same grid as `CrowdNeighbours::rebuild` of the sloths (id order).
     if let Some(crowd) = crowd.as_deref_mut() {
-        crowd.rebuild(&loco, q.iter().map(|(id, s, _)| (id.0, &s.0)));
+        crowd
+            .grid
+            .rebuild_hashed(q.iter().map(|(id, _, _, pts)| (id.0, &pts.0)));
     }
     clock.frame += 1;
     timings.last[4] = ms(t);

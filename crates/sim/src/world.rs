@@ -2,7 +2,7 @@
 
 use bevy_ecs::prelude::*;
 use slothsim_gait::{
-    Adjacency, CrowdGrid, LocomotionConfig, RigData, Sloth, SpawnHint, TraceBatch,
+    Adjacency, CrowdGrid, HashedPoint, LocomotionConfig, RigData, Sloth, SpawnHint, TraceBatch,
     World as LocoWorld,
 };
 use slothsim_rig::{CcdParams, Rig};
@@ -14,7 +14,14 @@ pub struct SlothId(pub u32);
 
 /// A sloth's locomotion state.
 #[derive(Component, Clone, Debug)]
+#[require(CrowdPoints)]
 pub struct SlothState(pub Sloth);
+
+/// The points a sloth occupies for the others ([`crowd_points`]) with their
+/// grid-cell hashes, written by the Transitions stage in parallel for the
+/// neighbour grid's serial rebuild.
+#[derive(Component, Clone, Copy, Debug, Default)]
+pub struct CrowdPoints(pub [HashedPoint; 7]);
 
 /// A sloth's trace requests and results (filled by the Trace stage).
 #[derive(Component, Clone, Debug, Default)]
@@ -111,9 +118,8 @@ impl CrowdNeighbours {
         sloths: impl Iterator<Item = (u32, &'a Sloth)>,
     ) {
         let rig = &loco.rig;
-        self.grid.rebuild(
-            sloths.flat_map(|(id, s)| crowd_points(rig, s).into_iter().map(move |p| (id, p))),
-        );
+        self.grid
+            .rebuild_groups(sloths.map(|(id, s)| (id, crowd_points(rig, s))));
     }
 }
 
