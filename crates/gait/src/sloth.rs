@@ -102,6 +102,12 @@ const TRANSFER_ROLL_POWER: f32 = 0.75;
 const TRANSFER_AWAY: f32 = 0.15;
 /// A fore limb takes a trunk at least this far above the hind limbs' grips (head up).
 const HEAD_UP_MARGIN: f32 = 0.05;
+/// Wander mode: a branch → trunk change is taken walking at most this steeply
+/// down toward the trunk (sine of the slope).
+const WANDER_MAX_DESCENT_SIN: f32 = -0.05;
+/// Wander mode: trunks taken from a branch are at most this thick where the
+/// branch meets them (metres; thicker ones the limbs cannot climb: README).
+const WANDER_MAX_TRUNK_RADIUS: f32 = 0.2;
 /// Side steps around a trunk (SPEC `find_side_step`): each step places its
 /// grip around the side the body faces the trunk from, turned about the axis
 /// toward the goal's side by at most this much (radians) and ...
@@ -1128,7 +1134,10 @@ impl Sloth {
             let sid = neighbours[(k + rotate) % neighbours.len()];
             k += 1;
             let scene = w.scene();
-            if self.wander && scene.support(sid).kind != scene.support(cur.support).kind {
+            if self.wander
+                && scene.support(sid).kind != scene.support(cur.support).kind
+                && !self.may_wander_across(w, cur.support, sid)
+            {
                 continue;
             }
             // Trailing limbs only follow onto a support a leading limb already
@@ -1148,6 +1157,28 @@ impl Sloth {
         }
         self.limbs[li].search.neighbour = k as u16;
         false
+    }
+
+    /// Wander mode: whether this sloth may change between a branch and a
+    /// trunk, from support `from` onto `to`, now. A transfer under way may go
+    /// on or be undone (after a turn back). A new one only head first, so the
+    /// fore limbs transfer first and the body stays head up (SPEC
+    /// `transfer_to_branch`, `transfer_to_trunk`): off a trunk only climbing
+    /// (a descent turns back at the trunk's foot and leaves higher up); onto
+    /// a trunk only walking level or uphill toward it (coming down a rising
+    /// branch the fore limbs cannot take the trunk above the hind limbs), and
+    /// only a trunk thin enough to climb.
+    fn may_wander_across(&self, w: &World<'_>, from: SupportId, to: SupportId) -> bool {
+        if self.transfer.is_some() {
+            return true;
+        }
+        if self.dir <= 0.0 {
+            return false;
+        }
+        let scene = w.scene();
+        scene.support(from).kind == SupportKind::Trunk
+            || (self.travel().y >= WANDER_MAX_DESCENT_SIN
+                && project(scene.support(to), self.body_pos).radius <= WANDER_MAX_TRUNK_RADIUS)
     }
 
     /// Starts a branch ↔ trunk transfer from `from` onto `to` (unless one is
@@ -1237,6 +1268,16 @@ impl Sloth {
                     -1.0
                 }
             }
+            // Wander mode: up or down, by this sloth's own choice.
+            _ if self.wander => {
+                if mix64(self.seed ^ mix64(u64::from(tr.to.0) ^ (u64::from(self.turns) << 32))) & 1
+                    == 0
+                {
+                    1.0
+                } else {
+                    -1.0
+                }
+            }
             _ => 1.0,
         };
         self.dir = dir;
@@ -1260,6 +1301,20 @@ impl Sloth {
             neighbour: u16::MAX,
             retreat: false,
         };
+        // Undoing a transfer (turned back with the trailing limbs on its
+        // target): no steps along the target; the limb goes back to the
+        // support the leading limbs hold (see `next_neighbour`).
+        if self.transfer.is_some_and(|t| {
+            t.to == g.support
+                && !self.leads(Limb::ALL[li])
+                && Limb::ALL
+                    .iter()
+                    .all(|&l| !self.leads(l) || self.limbs[l.index()].grip.support != t.to)
+        }) {
+            search.next_u = g.u - g.sdir;
+            search.first_u = search.next_u;
+            return search;
+        }
         if let Some(ss) = self.side_step(w, g.support) {
             let sdir = if ss.axial_to_goal >= 0.0 { 1.0 } else { -1.0 };
             let ahead = ss.axial_to_goal.abs().min(w.cfg.search_distance_m);
