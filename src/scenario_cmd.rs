@@ -159,7 +159,13 @@ fn print_result(r: &ScenarioResult) {
     let j = &r.judge;
     let p = r.parameter.map_or(String::new(), |v| format!(" {v}"));
     let v = r.variant.map_or(String::new(), |v| {
-        format!(" ({})", serde_json::to_value(v).unwrap_or_default().as_str().unwrap_or(""))
+        format!(
+            " ({})",
+            serde_json::to_value(v)
+                .unwrap_or_default()
+                .as_str()
+                .unwrap_or("")
+        )
     });
     println!(
         "scenario {}{p}{v}: {}",

@@ -868,7 +868,12 @@ impl Sloth {
     /// [`Self::step_reachable`] for one or more limbs stepping together onto
     /// `support` (`transfer_to_branch`'s hind pair: both on their arcs at the
     /// same progress, the hindquarters offset back as they go).
-    fn steps_reachable(&self, w: &World<'_>, steps: &[(usize, Vec3, Vec3)], support: SupportId) -> bool {
+    fn steps_reachable(
+        &self,
+        w: &World<'_>,
+        steps: &[(usize, Vec3, Vec3)],
+        support: SupportId,
+    ) -> bool {
         let mut grips = self.limbs.map(|l| l.grip.point);
         let from = self.limbs.map(|l| (l.grip.point, l.grip.normal));
         let mut weights = self.trunk_weights(w);
@@ -1012,9 +1017,13 @@ impl Sloth {
                 && hit.normal.dot(m.out) >= RECHECK_NORMAL_COS;
             // The hind pair's partner may have started a swing of its own
             // since this candidate was queued.
-            let pair = m.pair.map(|(pi, p, n)| (pi as usize, p, n)).filter(|&(pi, ..)| {
-                self.limbs[pi].phase != LimbPhase::Swinging && self.hind_pair(li, m.support) == Some(pi)
-            });
+            let pair = m
+                .pair
+                .map(|(pi, p, n)| (pi as usize, p, n))
+                .filter(|&(pi, ..)| {
+                    self.limbs[pi].phase != LimbPhase::Swinging
+                        && self.hind_pair(li, m.support) == Some(pi)
+                });
             if m.pair.is_some() && pair.is_none() {
                 continue;
             }
