@@ -170,7 +170,7 @@ fn scenario_bad_input_is_a_clear_error() {
     std::fs::write(&bad_cfg, "max_stepp = 0.3\n").unwrap();
     let long_step = dir.path().join("long.toml");
     std::fs::write(&long_step, "max_step_m = 0.9\n").unwrap();
-    let cases: [(&[&str], &str); 5] = [
+    let cases: [(&[&str], &str); 7] = [
         (&["scenario", "spiral"], "unknown preset"),
         (&["scenario", "turn", "--angle", "30"], "60..=180"),
         (
@@ -182,6 +182,12 @@ fn scenario_bad_input_is_a_clear_error() {
             "max_step_m",
         ),
         (&["scenario", "pole", "--seconds", "-3"], "seconds"),
+        // Variants belong to their presets and say which ones they take.
+        (&["scenario", "trunk", "--variant", "to-branch"], "up, down"),
+        (
+            &["scenario", "branch_trunk", "--variant", "down"],
+            "to-trunk, to-branch",
+        ),
     ];
     for (args, needle) in cases {
         let out = Command::new(env!("CARGO_BIN_EXE_slothsim"))
@@ -209,7 +215,7 @@ fn branch_to_trunk_head_up_inside_the_thesis_range() {
     // transfer_to_trunk: fore limbs take the trunk above the hind limbs, the
     // body rolls to face the trunk from beside the branch, then climbs down
     // tail first (head up) to the goal on the trunk.
-    for angle in [95.0, 110.0, 125.0] {
+    for angle in [95.0, 110.0, 125.0, 135.0] {
         let r = run("branch_trunk", Some(angle), TrunkVariant::Up, Profile::Free);
         assert_measures_within_issue_limits(&r);
         assert_eq!(r.judge.head_below_hips_on_trunk_frames, 0);

@@ -219,6 +219,9 @@ pub struct Search {
     /// Searching backward on the current support: no forward step was left
     /// anywhere, so the limb re-grips behind to unlock the others.
     pub retreat: bool,
+    /// Searching the goal's branch before the trunk the limb holds (see
+    /// [`Sloth::goal_branch_search`]); once exhausted, the trunk is searched.
+    pub goal_first: bool,
 }
 
 /// One limb.
@@ -404,6 +407,9 @@ pub struct Candidate {
     pub out: Vec3,
     /// The grip the reach checks passed at (on the support model's surface).
     pub point: Vec3,
+    /// `transfer_to_branch`'s hind pair: the partner limb, its grip and
+    /// surface normal (it steps together with `limb`).
+    pub pair: Option<(u8, Vec3, Vec3)>,
 }
 
 /// Spawn description: a support, a point on its axis, travel direction and the body side.
@@ -455,6 +461,9 @@ struct BodyOffset {
     metres: f32,
     /// Share of limbs on a trunk, 0..1.
     trunk_share: f32,
+    /// `transfer_to_branch`'s "offset back": metres the hindquarters are
+    /// moved off the trunk while the hind pair swings onto the branch.
+    hind_back_m: f32,
 }
 
 /// Formula 7's offset of the body below the paws for limbs with trunk
@@ -466,6 +475,29 @@ fn body_offset(w: &World<'_>, weights: [f32; 4]) -> BodyOffset {
     BodyOffset {
         metres: w.body_offset + (trunk - w.body_offset) * share,
         trunk_share: share,
+        hind_back_m: 0.0,
+    }
+}
+
+/// The hindquarters' "offset back" at swing progress `t` of the hind pair,
+/// as a share of `offset_back_m`: sin²(πt) rises from 0 and returns to 0 with
+/// zero slope at both ends, so the body never jumps.
+fn hind_back_share(t: f32) -> f32 {
+    (std::f32::consts::PI * t.clamp(0.0, 1.0)).sin().powi(2)
+}
+
+/// The step search of a limb holding `g`, on its own support: from one
+/// search distance ahead back to the grip.
+fn search_ahead(w: &World<'_>, g: Grip) -> Search {
+    Search {
+        support: g.support,
+        sdir: g.sdir,
+        first_u: g.u + g.sdir * w.cfg.search_distance_m,
+        next_u: g.u + g.sdir * w.cfg.search_distance_m,
+        last_u: g.u,
+        neighbour: u16::MAX,
+        retreat: false,
+        goal_first: false,
     }
 }
 
@@ -603,6 +635,7 @@ impl Sloth {
                 last_u: 0.0,
                 neighbour: u16::MAX,
                 retreat: false,
+                goal_first: false,
             },
             due: false,
             settled_ls: None,
@@ -780,14 +813,83 @@ impl Sloth {
 
     /// Formulas 6 and 7 for the current targets: (position, rotation).
     fn averaged_body(&self, w: &World<'_>) -> (Vec3, Quat) {
-        let offset = body_offset(w, self.trunk_weights(w));
+        let mut offset = body_offset(w, self.trunk_weights(w));
+        if let Some(t) = self.hind_pair_swing_t() {
+            offset.hind_back_m = w.cfg.offset_back_m * hind_back_share(t);
+        }
         self.body_for_targets(w, &self.targets(), offset)
+    }
+
+    /// Swing progress of `transfer_to_branch`'s hind pair while it travels
+    /// from the trunk onto the branch together (see [`Self::hind_pair`]).
+    fn hind_pair_swing_t(&self) -> Option<f32> {
+        let tr = self.transfer?;
+        let (lh, rh) = (self.limbs[Limb::LH.index()], self.limbs[Limb::RH.index()]);
+        let pair = [lh, rh].iter().all(|l| {
+            l.phase == LimbPhase::Swinging && l.from_support == tr.trunk && l.grip.support == tr.to
+        });
+        (pair && tr.to != tr.trunk).then_some(lh.swing_t.min(rh.swing_t))
+    }
+
+    /// `transfer_to_branch`: once no fore limb is on the trunk, the hind
+    /// limbs leave it together (SPEC: the one exception to one limb at a
+    /// time). The partner of hind limb `li` stepping onto branch `sid`, if
+    /// this is that step.
+    fn hind_pair(&self, li: usize, sid: SupportId) -> Option<usize> {
+        let tr = self.transfer?;
+        let limb = Limb::ALL[li];
+        if limb.is_fore() || self.dir < 0.0 || tr.to != sid || tr.trunk == sid {
+            return None;
+        }
+        let partner = limb.opposite().index();
+        let on_trunk = |i: usize| self.limbs[i].grip.support == tr.trunk;
+        let ready = on_trunk(li)
+            && on_trunk(partner)
+            && self.limbs[partner].phase != LimbPhase::Swinging
+            && !on_trunk(Limb::LF.index())
+            && !on_trunk(Limb::RF.index());
+        ready.then_some(partner)
     }
 
     fn body_for_targets(&self, w: &World<'_>, t: &[Vec3; 4], offset: BodyOffset) -> (Vec3, Quat) {
         let (f, up) = self.body_frame(w, t, offset.trunk_share);
         let mean = (t[0] + t[1] + t[2] + t[3]) * 0.25;
-        (mean - up * offset.metres, rotation_from(f, up))
+        let (pos, rot) = (mean - up * offset.metres, rotation_from(f, up));
+        match self.transfer {
+            Some(tr) if offset.hind_back_m > 0.0 => {
+                self.hindquarters_back(w, tr.trunk, pos, rot, offset.hind_back_m)
+            }
+            _ => (pos, rot),
+        }
+    }
+
+    /// The body turned about its shoulders so that the hips move `back_m`
+    /// straight off the trunk's axis: the hindquarters swing out clear of
+    /// the trunk while the hind pair travels up onto the branch, and the
+    /// planted fore limbs' roots hardly move.
+    fn hindquarters_back(
+        &self,
+        w: &World<'_>,
+        trunk: SupportId,
+        pos: Vec3,
+        rot: Quat,
+        back_m: f32,
+    ) -> (Vec3, Quat) {
+        let fore_ms = (Vec3::from(w.rig.roots_ms[Limb::LF.index()].position)
+            + Vec3::from(w.rig.roots_ms[Limb::RF.index()].position))
+            * 0.5;
+        let shoulders = pos + rot * fore_ms;
+        let hips = pos + rot * w.rig.hips_ms;
+        let a = project(w.scene().support(trunk), hips);
+        let radial = hips - a.point;
+        let out = (radial - a.tangent * a.tangent.dot(radial)).normalize_or_zero();
+        let from = (hips - shoulders).normalize_or_zero();
+        let to = (hips + out * back_m - shoulders).normalize_or_zero();
+        if from == Vec3::ZERO || to == Vec3::ZERO {
+            return (pos, rot);
+        }
+        let q = Quat::from_rotation_arc(from, to);
+        (shoulders + q * (pos - shoulders), (q * rot).normalize())
     }
 
     /// How much each limb is on a trunk (1) or a branch (0); a swinging limb
@@ -816,31 +918,53 @@ impl Sloth {
         normal: Vec3,
         support: SupportId,
     ) -> bool {
+        self.steps_reachable(w, &[(li, grip, normal)], support)
+    }
+
+    /// [`Self::step_reachable`] for one or more limbs stepping together onto
+    /// `support` (`transfer_to_branch`'s hind pair: both on their arcs at the
+    /// same progress, the hindquarters offset back as they go).
+    fn steps_reachable(
+        &self,
+        w: &World<'_>,
+        steps: &[(usize, Vec3, Vec3)],
+        support: SupportId,
+    ) -> bool {
         let mut grips = self.limbs.map(|l| l.grip.point);
-        let from = (grips[li], self.limbs[li].grip.normal);
+        let from = self.limbs.map(|l| (l.grip.point, l.grip.normal));
         let mut weights = self.trunk_weights(w);
+        let pair = steps.len() > 1;
         // Points of the arc as `body_average` will draw them, then the end.
         let stances: [StanceCheck; SWING_CHECKS.len() + 1] = std::array::from_fn(|k| {
             let mut tol;
+            let mut offset_back = 0.0;
             if let Some(&t) = SWING_CHECKS.get(k) {
-                grips[li] = swing_point(
-                    from,
-                    (grip, normal),
-                    t,
-                    w.cfg.swing_clearance_m,
-                    self.body_rot * Vec3::NEG_Y,
-                );
-                weights[li] = trunk_blend(w, self.limbs[li].grip.support, support, t);
                 tol = [SWING_IK_TOLERANCE; 4];
-                // The stepping limb is in the air: its pose is free.
-                tol[li] = f32::INFINITY;
+                for &(li, grip, normal) in steps {
+                    grips[li] = swing_point(
+                        from[li],
+                        (grip, normal),
+                        t,
+                        w.cfg.swing_clearance_m,
+                        self.body_rot * Vec3::NEG_Y,
+                    );
+                    weights[li] = trunk_blend(w, self.limbs[li].grip.support, support, t);
+                    // The stepping limb is in the air: its pose is free.
+                    tol[li] = f32::INFINITY;
+                }
+                if pair {
+                    offset_back = w.cfg.offset_back_m * hind_back_share(t);
+                }
             } else {
-                grips[li] = grip;
-                weights[li] = trunk_blend(w, support, support, 1.0);
                 tol = [HOLD_IK_TOLERANCE; 4];
-                tol[li] = STANCE_IK_TOLERANCE;
+                for &(li, grip, _) in steps {
+                    grips[li] = grip;
+                    weights[li] = trunk_blend(w, support, support, 1.0);
+                    tol[li] = STANCE_IK_TOLERANCE;
+                }
             }
-            let offset = body_offset(w, weights);
+            let mut offset = body_offset(w, weights);
+            offset.hind_back_m = offset_back;
             let (pos, rot) = self.body_for_targets(w, &grips, offset);
             StanceCheck {
                 grips,
@@ -859,21 +983,24 @@ impl Sloth {
                 !(d > max || d < min)
             })
         });
+        let stepping: [bool; 4] = std::array::from_fn(|i| steps.iter().any(|s| s.0 == i));
         in_band
             && !stances
                 .iter()
                 .any(|st| self.body_penetrates(w, st.pos, st.rot))
-            && self.stances_hold(w, li, &stances)
+            && self.stances_hold(w, &stepping, &stances)
     }
 
     /// The CCD part of [`Self::step_reachable`]: every limb with a finite
     /// tolerance reaches its target in every stance. The stepping limb at the
     /// end stance goes first: it is the check that fails most often (the
     /// search tries the farthest candidates first).
-    fn stances_hold(&self, w: &World<'_>, li: usize, stances: &[StanceCheck]) -> bool {
+    fn stances_hold(&self, w: &World<'_>, stepping: &[bool; 4], stances: &[StanceCheck]) -> bool {
         let last = stances.len() - 1;
-        let others = (0..4).filter(|&i| i != li);
-        let order = std::iter::once((last, li))
+        let moving = (0..4).filter(|&i| stepping[i]);
+        let others = (0..4).filter(|&i| !stepping[i]);
+        let order = moving
+            .map(|i| (last, i))
             .chain(others.clone().map(|i| (last, i)))
             .chain((0..last).flat_map(|k| others.clone().map(move |i| (k, i))));
         order.into_iter().all(|(k, i)| {
@@ -950,8 +1077,30 @@ impl Sloth {
             // hit is re-checked only if the surface is elsewhere.
             let as_checked = hit.point.distance(m.point) <= RECHECK_DISTANCE
                 && hit.normal.dot(m.out) >= RECHECK_NORMAL_COS;
-            if !as_checked && !self.step_reachable(w, li, hit.point, hit.normal, m.support) {
+            // The hind pair's partner may have started a swing of its own
+            // since this candidate was queued.
+            let pair = m
+                .pair
+                .map(|(pi, p, n)| (pi as usize, p, n))
+                .filter(|&(pi, ..)| {
+                    self.limbs[pi].phase != LimbPhase::Swinging
+                        && self.hind_pair(li, m.support) == Some(pi)
+                });
+            if m.pair.is_some() && pair.is_none() {
                 continue;
+            }
+            if !as_checked {
+                let reachable = match pair {
+                    Some((pi, p, n)) => self.steps_reachable(
+                        w,
+                        &[(li, hit.point, hit.normal), (pi, p, n)],
+                        m.support,
+                    ),
+                    None => self.step_reachable(w, li, hit.point, hit.normal, m.support),
+                };
+                if !reachable {
+                    continue;
+                }
             }
             let grip = Grip {
                 point: hit.point,
@@ -960,17 +1109,33 @@ impl Sloth {
                 u: m.u,
                 sdir: m.sdir,
             };
-            if !self.leaves_a_step(w, li, grip) {
+            let pair_grip = pair.map(|(pi, point, normal)| {
+                (
+                    pi,
+                    Grip {
+                        point,
+                        normal,
+                        ..grip
+                    },
+                )
+            });
+            if !self.leaves_a_step(w, li, grip, pair_grip) {
                 continue;
             }
-            chosen[li] = true;
-            let l = &mut self.limbs[li];
-            l.from = l.grip.point;
-            l.from_normal = l.grip.normal;
-            l.from_support = l.grip.support;
-            l.grip = grip;
-            l.phase = LimbPhase::Swinging;
-            l.swing_t = 0.0;
+            for (lj, g) in std::iter::once((li, grip)).chain(pair_grip) {
+                chosen[lj] = true;
+                let l = &mut self.limbs[lj];
+                l.from = l.grip.point;
+                l.from_normal = l.grip.normal;
+                l.from_support = l.grip.support;
+                l.grip = g;
+                l.phase = LimbPhase::Swinging;
+                l.swing_t = 0.0;
+                if lj != li {
+                    // The partner's own turn is taken by this step.
+                    l.due = false;
+                }
+            }
             self.failed_searches = 0;
             self.stalled_turns = 0;
         }
@@ -1039,6 +1204,15 @@ impl Sloth {
             if queued > 0 || batch.len == MAX_TRACES || checks >= MAX_REACH_CHECKS_PER_FRAME {
                 return;
             }
+            // The goal's branch is exhausted: climb on along the trunk.
+            if sr.goal_first {
+                let neighbour = sr.neighbour;
+                self.limbs[li].search = Search {
+                    neighbour,
+                    ..search_ahead(w, self.limbs[li].grip)
+                };
+                continue;
+            }
             // This support is exhausted: try the next neighbour, then a retreat.
             if !self.next_neighbour(w, li) && !self.start_retreat(w, li) {
                 // Nothing anywhere: stay planted.
@@ -1061,6 +1235,39 @@ impl Sloth {
                 return;
             }
         }
+    }
+
+    /// A leading limb on a trunk whose goal is on a branch leaving it tries
+    /// that branch first (`transfer_to_branch`): a branch ends at its trunk,
+    /// so a limb on a branch reaches the trunk once the branch is exhausted,
+    /// but a trunk goes on past the branch, and climbing it would never end.
+    /// `None` when the branch is out of reach: the limb climbs the trunk.
+    fn goal_branch_search(&mut self, w: &World<'_>, li: usize) -> Option<Search> {
+        let (gs, _) = self.goal?;
+        let cur = self.limbs[li].grip.support;
+        let scene = w.scene();
+        let neighbours = w.adjacency.neighbours(cur);
+        if self.wander
+            || !self.leads(Limb::ALL[li])
+            || scene.support(cur).kind != SupportKind::Trunk
+            || scene.support(gs).kind != SupportKind::Branch
+            || !neighbours.contains(&gs)
+        {
+            return None;
+        }
+        let transfer = self.transfer;
+        self.begin_transfer(w, li, cur, gs);
+        // Neighbours count as tried: once the branch is exhausted the limb
+        // searches the trunk, then retreats (see `queue_candidates`).
+        let tried = u16::try_from(neighbours.len()).unwrap_or(u16::MAX - 1);
+        let search = self.neighbour_search(w, li, gs, tried).map(|sr| Search {
+            goal_first: true,
+            ..sr
+        });
+        if search.is_none() {
+            self.transfer = transfer;
+        }
+        search
     }
 
     /// Wander mode, at a dead end or blocked: reverse the travel direction
@@ -1101,6 +1308,7 @@ impl Sloth {
             neighbour: u16::try_from(w.adjacency.neighbours(g.support).len())
                 .unwrap_or(u16::MAX - 1),
             retreat: true,
+            goal_first: false,
         };
         true
     }
@@ -1292,15 +1500,7 @@ impl Sloth {
     /// to a step at the grip's own height.
     fn own_search(&self, w: &World<'_>, li: usize) -> Search {
         let g = self.limbs[li].grip;
-        let mut search = Search {
-            support: g.support,
-            sdir: g.sdir,
-            first_u: g.u + g.sdir * w.cfg.search_distance_m,
-            next_u: g.u + g.sdir * w.cfg.search_distance_m,
-            last_u: g.u,
-            neighbour: u16::MAX,
-            retreat: false,
-        };
+        let mut search = search_ahead(w, g);
         // Undoing a transfer (turned back with the trailing limbs on its
         // target): no steps along the target; the limb goes back to the
         // support the leading limbs hold (see `next_neighbour`).
@@ -1371,14 +1571,22 @@ impl Sloth {
             return None;
         }
         let sdir = self.choose_sdir(w, sid, entry.tangent);
+        // transfer_to_branch: the hind pair's trace is capped (thesis: 10 cm)
+        // so the feet take the branch close to the trunk, under the body.
+        let reach_u = if self.hind_pair(li, sid).is_some() {
+            w.cfg.hind_transfer_trace_cap_m
+        } else {
+            w.cfg.search_distance_m
+        };
         Some(Search {
             support: sid,
             sdir,
-            first_u: entry.u + sdir * w.cfg.search_distance_m,
-            next_u: entry.u + sdir * w.cfg.search_distance_m,
+            first_u: entry.u + sdir * reach_u,
+            next_u: entry.u + sdir * reach_u,
             last_u: entry.u - sdir * 0.15,
             neighbour: k,
             retreat: false,
+            goal_first: false,
         })
     }
 
@@ -1386,10 +1594,18 @@ impl Sloth {
     /// (tried in footfall order from the next) still has a step (cheap checks
     /// and reach, without traces). Keeps the greedy farthest-first search
     /// out of stances from which no limb can move.
-    fn leaves_a_step(&self, w: &World<'_>, li: usize, grip: Grip) -> bool {
+    fn leaves_a_step(
+        &self,
+        w: &World<'_>,
+        li: usize,
+        grip: Grip,
+        pair: Option<(usize, Grip)>,
+    ) -> bool {
         let mut next = *self;
-        next.limbs[li].grip = grip;
-        next.limbs[li].target = grip.point;
+        for (lj, g) in std::iter::once((li, grip)).chain(pair) {
+            next.limbs[lj].grip = g;
+            next.limbs[lj].target = g.point;
+        }
         let grips = next.limbs.map(|l| l.grip.point);
         let offset = body_offset(w, next.trunk_weights(w));
         (next.body_pos, next.body_rot) = next.body_for_targets(w, &grips, offset);
@@ -1406,7 +1622,7 @@ impl Sloth {
         });
         order
             .into_iter()
-            .filter(|&lj| lj != li)
+            .filter(|&lj| lj != li && pair.is_none_or(|(pi, _)| lj != pi))
             .any(|lj| next.has_step(w, lj))
     }
 
@@ -1546,11 +1762,29 @@ impl Sloth {
         if !step_ok || dist > max_step {
             return None;
         }
+        // transfer_to_branch's hind pair: the partner steps to the mirror grip
+        // on the branch's other side at the same arc length.
+        let pair = self.hind_pair(li, sid).map(|pi| {
+            let out2 = grip_out(
+                s.kind,
+                Limb::ALL[pi],
+                f,
+                up,
+                w.cfg.trunk_grip_angle_deg.to_radians(),
+            );
+            (pi, a.point + out2 * a.radius, out2)
+        });
+        if pair.is_some_and(|(pi, p2, _)| p2.distance(self.limbs[pi].grip.point) > max_step) {
+            return None;
+        }
         // Leg order: hind never ahead of a fore limb; never behind the opposite limb of the girdle.
         let proj = |p: Vec3| p.dot(body_fwd);
         let fore_min = proj(self.limbs[Limb::LF.index()].grip.point)
             .min(proj(self.limbs[Limb::RF.index()].grip.point));
         if !limb.is_fore() && proj(approx) > fore_min - 0.05 {
+            return None;
+        }
+        if pair.is_some_and(|(_, p2, _)| proj(p2) > fore_min - 0.05) {
             return None;
         }
         let opp = self.limbs[limb.opposite().index()].grip.point;
@@ -1593,11 +1827,19 @@ impl Sloth {
             }
         }
         // Keep clear of other sloths' bodies and grips.
-        if w.crowd.is_some_and(|g| g.blocked(self.id, approx)) {
+        if w.crowd.is_some_and(|g| {
+            g.blocked(self.id, approx) || pair.is_some_and(|(_, p2, _)| g.blocked(self.id, p2))
+        }) {
             return None;
         }
         *checks += 1;
-        if !self.step_reachable(w, li, approx, out, sid) {
+        let reachable = match pair {
+            Some((pi, p2, out2)) => {
+                self.steps_reachable(w, &[(li, approx, out), (pi, p2, out2)], sid)
+            }
+            None => self.step_reachable(w, li, approx, out, sid),
+        };
+        if !reachable {
             return None;
         }
         let origin = a.point + out * (a.radius + TRACE_STANDOFF);
@@ -1615,6 +1857,7 @@ impl Sloth {
                 sdir,
                 out,
                 point: approx,
+                pair: pair.map(|(pi, p2, out2)| (pi as u8, p2, out2)),
             },
         ))
     }
@@ -1771,7 +2014,9 @@ impl Sloth {
             }
             self.limbs[li].due = false;
             self.limbs[li].phase = LimbPhase::Searching;
-            self.limbs[li].search = self.own_search(w, li);
+            self.limbs[li].search = self
+                .goal_branch_search(w, li)
+                .unwrap_or_else(|| self.own_search(w, li));
             self.queue_candidates(w, li, batch);
         }
     }

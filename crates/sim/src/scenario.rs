@@ -18,16 +18,71 @@ use crate::world::{Locomotion, SlothState, Traces, new_world, spawn_sloth};
 /// Seconds between the poses kept for the side view.
 pub const POSE_EVERY_S: f32 = 1.0;
 
-/// Which way a scenario is run (only the trunk preset has variants).
+/// Which way a scenario is run: the trunk preset climbs up or down, the
+/// branch_trunk preset goes from the branch onto the trunk or back. Every
+/// other preset runs as `Up`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum TrunkVariant {
-    /// Climb up the trunk.
+    /// Climb up the trunk; on branch_trunk the same as `ToTrunk` (the default run).
     Up,
     /// Climb down, head up.
     Down,
-    /// Side-step half way around the trunk's axis at the start's height.
+    /// trunk: side-step half way around the trunk's axis at the start's height.
     Around,
+    /// branch_trunk: from the branch onto the trunk (`transfer_to_trunk`),
+    /// then down it head up to a goal below the junction.
+    ToTrunk,
+    /// branch_trunk: from the trunk below the junction (head up, beside the
+    /// branch's plane) up onto the branch (`transfer_to_branch`), to a goal
+    /// out on it.
+    ToBranch,
+}
+
+impl TrunkVariant {
+    /// Whether this variant reports itself (a non-default way of a preset).
+    pub fn shown_for(self, kind: PresetKind) -> bool {
+        kind == PresetKind::Trunk || (kind == PresetKind::BranchTrunk && self != TrunkVariant::Up)
+    }
+
+    /// The start and goal of `preset` run this way.
+    pub fn start_goal(self, preset: &Preset) -> (slothsim_scene::StartHint, slothsim_scene::Goal) {
+        let (mut start, mut goal) = (preset.start, preset.goal);
+        match (preset.kind, self) {
+            (PresetKind::Trunk, TrunkVariant::Down) => {
+                std::mem::swap(&mut start.position, &mut goal.point);
+                start.position.y -= 0.5;
+                goal.point.y += 0.5;
+                start.forward = -start.forward;
+            }
+            (PresetKind::BranchTrunk, TrunkVariant::ToBranch) => {
+                // The reverse run: start where the branch → trunk run ends
+                // (on the trunk below the junction, head up, the body 60°
+                // around the trunk from the branch's side), and make for where
+                // that run starts. Beside the branch's vertical plane, the
+                // body climbs past a branch that falls away below the
+                // junction without running into it, and its fore limbs still
+                // reach the branch.
+                let b = preset.scene.support(start.support);
+                let along = b.nodes[b.nodes.len() - 1] - b.nodes[0];
+                let away = glam::Vec3::new(along.x, 0.0, along.z).normalize_or(glam::Vec3::X);
+                let side = glam::Vec3::Y.cross(away);
+                let angle = 60f32.to_radians();
+                (start.support, goal.support) = (goal.support, start.support);
+                std::mem::swap(&mut start.position, &mut goal.point);
+                start.forward = glam::Vec3::Y;
+                start.body_side = away * angle.cos() + side * angle.sin();
+            }
+            (PresetKind::Trunk, TrunkVariant::Around) => {
+                // Half way around: the start is on the trunk's axis, the body beside it.
+                goal.point = start.position;
+                goal.side = Some(-start.body_side);
+                goal.tolerance = AROUND_GOAL_TOLERANCE;
+            }
+            _ => {}
+        }
+        (start, goal)
+    }
 }
 
 /// The around variant's goal: the body within this distance of where it
@@ -96,21 +151,8 @@ pub fn run_scenario(
     rig: &Rig,
 ) -> Result<ScenarioResult, slothsim_gait::ConfigError> {
     let preset = &spec.preset;
-    let mut start = preset.start;
-    let mut goal = preset.goal;
     let variant = spec.variant;
-    if preset.kind == PresetKind::Trunk && variant == TrunkVariant::Down {
-        std::mem::swap(&mut start.position, &mut goal.point);
-        start.position.y -= 0.5;
-        goal.point.y += 0.5;
-        start.forward = -start.forward;
-    }
-    if preset.kind == PresetKind::Trunk && variant == TrunkVariant::Around {
-        // Half way around: the start is on the trunk's axis, the body beside it.
-        goal.point = start.position;
-        goal.side = Some(-start.body_side);
-        goal.tolerance = AROUND_GOAL_TOLERANCE;
-    }
+    let (start, goal) = variant.start_goal(preset);
     // The way around counts at about the body's distance from a trunk's axis.
     let around = goal
         .side
@@ -202,7 +244,7 @@ pub fn run_scenario(
     Ok(ScenarioResult {
         scenario: preset.kind.name().to_string(),
         parameter: preset.parameter,
-        variant: (preset.kind == PresetKind::Trunk).then_some(variant),
+        variant: variant.shown_for(preset.kind).then_some(variant),
         verdict,
         status,
         judge: report,
