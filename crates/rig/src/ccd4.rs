@@ -850,8 +850,8 @@ fn sweeps4(
         let stalled = lanes.active & (prev_err - err).cmplt(min_improvement);
         lanes.scalar |= stalled;
         if stalled.any() {
-            for j in 0..CHAIN_JOINTS {
-                handover.stall_pose[j] = Q::select(stalled, sweep_start[j], handover.stall_pose[j]);
+            for (h, q) in handover.stall_pose.iter_mut().zip(sweep_start) {
+                *h = Q::select(stalled, q, *h);
             }
             handover.stall_prev_err = sel(stalled, prev_err, handover.stall_prev_err);
             handover.stall_iter = sel(stalled, splat(iter as f32), handover.stall_iter);
