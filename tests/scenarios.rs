@@ -225,3 +225,33 @@ fn branch_to_trunk_head_up_inside_the_thesis_range() {
         assert!((last.body_rot * glam::Vec3::Z).y > 0.9, "head up");
     }
 }
+
+#[test]
+fn trunk_to_branch_onto_a_rising_branch_hind_pair_together() {
+    // transfer_to_branch: climbing the trunk head up, the fore limbs take a
+    // branch rising from it, the hind limbs leave the trunk only when no
+    // fore limb is on it, and then both lift together (two limbs in contact)
+    // onto the branch, out to the goal on it (support 1).
+    for angle in [60.0, 70.0, 80.0] {
+        let r = run(
+            "branch_trunk",
+            Some(angle),
+            TrunkVariant::ToBranch,
+            Profile::Free,
+        );
+        assert_measures_within_issue_limits(&r);
+        assert_eq!(r.judge.head_below_hips_on_trunk_frames, 0);
+        let last = r.observations.last().unwrap();
+        assert!(last.limbs.iter().all(|l| l.support.0 == 1), "{angle}°");
+        // The hind pair's step: both hind limbs in the air at once, the fore
+        // limbs on the branch and the hind limbs coming off the trunk.
+        let together = r.observations.windows(2).any(|o| {
+            let (a, b) = (&o[0], &o[1]);
+            let hind = [slothsim::rig::Limb::LH, slothsim::rig::Limb::RH];
+            hind.iter()
+                .all(|&h| !b.limb(h).planted && a.limb(h).support.0 == 0)
+                && b.limbs_in_contact() == 2
+        });
+        assert!(together, "{angle}°: the hind pair never lifted together");
+    }
+}

@@ -311,6 +311,9 @@ pub struct Sloth {
     pub stalled_turns: u8,
     /// Branch ↔ trunk transfer in progress, if any.
     pub transfer: Option<Transfer>,
+    /// The share of `offset_back_m` the hind pair's swing onto a branch
+    /// uses (the most its stance checks allowed).
+    pub hind_back_scale: f32,
 }
 
 /// Serde for [`ChainPose`] (four quaternions, bit-exact through serde's f32).
@@ -410,6 +413,9 @@ pub struct Candidate {
     /// `transfer_to_branch`'s hind pair: the partner limb, its grip and
     /// surface normal (it steps together with `limb`).
     pub pair: Option<(u8, Vec3, Vec3)>,
+    /// The hind pair's share of the offset back its checks passed with (see
+    /// [`Sloth::pair_back_scale`]).
+    pub back_scale: f32,
 }
 
 /// Spawn description: a support, a point on its axis, travel direction and the body side.
@@ -503,6 +509,12 @@ fn search_ahead(w: &World<'_>, g: Grip) -> Search {
 
 /// Swing progress points at which a step's transient stance is checked.
 const SWING_CHECKS: [f32; 3] = [0.3, 0.55, 0.8];
+
+/// Further swing progress points at which a branch ↔ trunk step's body is
+/// checked for penetration (every 5 % with [`SWING_CHECKS`]).
+const TRANSFER_BODY_CHECKS: [f32; 16] = [
+    0.05, 0.1, 0.15, 0.2, 0.25, 0.35, 0.4, 0.45, 0.5, 0.6, 0.65, 0.7, 0.75, 0.85, 0.9, 0.95,
+];
 
 /// Body frame for a support: (forward, up toward the support) at an axis point.
 /// Branch: up = world +Y made perpendicular to forward. Trunk: forward = the
@@ -677,6 +689,7 @@ impl Sloth {
             turns: 0,
             stalled_turns: 0,
             transfer: None,
+            hind_back_scale: 1.0,
         };
         // Settle the stance: a few rounds of (body from grips; each grip slid
         // along the support to where its limb reaches it best, searched in
@@ -815,7 +828,7 @@ impl Sloth {
     fn averaged_body(&self, w: &World<'_>) -> (Vec3, Quat) {
         let mut offset = body_offset(w, self.trunk_weights(w));
         if let Some(t) = self.hind_pair_swing_t() {
-            offset.hind_back_m = w.cfg.offset_back_m * hind_back_share(t);
+            offset.hind_back_m = w.cfg.offset_back_m * self.hind_back_scale * hind_back_share(t);
         }
         self.body_for_targets(w, &self.targets(), offset)
     }
@@ -918,7 +931,29 @@ impl Sloth {
         normal: Vec3,
         support: SupportId,
     ) -> bool {
-        self.steps_reachable(w, &[(li, grip, normal)], support)
+        self.steps_reachable(w, &[(li, grip, normal)], support, 0.0)
+    }
+
+    /// The hind pair's step onto a branch (`transfer_to_branch`): the largest
+    /// share of the offset back (all, half, none) with which every stance of
+    /// the step holds, if any. The thesis' Offset Back is a visual offset of
+    /// the hindquarters by the spine rig; on this rigid torso it moves the
+    /// hind limbs' roots, and all of it can take the branch out of their reach.
+    fn pair_back_scale(
+        &self,
+        w: &World<'_>,
+        steps: &[(usize, Vec3, Vec3)],
+        support: SupportId,
+    ) -> Option<f32> {
+        let scales: &[f32] = if w.cfg.offset_back_m > 0.0 {
+            &[1.0, 0.5, 0.0]
+        } else {
+            &[0.0]
+        };
+        scales
+            .iter()
+            .copied()
+            .find(|&k| self.steps_reachable(w, steps, support, k))
     }
 
     /// [`Self::step_reachable`] for one or more limbs stepping together onto
@@ -929,16 +964,17 @@ impl Sloth {
         w: &World<'_>,
         steps: &[(usize, Vec3, Vec3)],
         support: SupportId,
+        back_scale: f32,
     ) -> bool {
         let mut grips = self.limbs.map(|l| l.grip.point);
         let from = self.limbs.map(|l| (l.grip.point, l.grip.normal));
         let mut weights = self.trunk_weights(w);
         let pair = steps.len() > 1;
-        // Points of the arc as `body_average` will draw them, then the end.
-        let stances: [StanceCheck; SWING_CHECKS.len() + 1] = std::array::from_fn(|k| {
+        // Points of the arc as `body_average` will draw them (`Some(t)`), or the end.
+        let mut stance_at = |at: Option<f32>| {
             let mut tol;
             let mut offset_back = 0.0;
-            if let Some(&t) = SWING_CHECKS.get(k) {
+            if let Some(t) = at {
                 tol = [SWING_IK_TOLERANCE; 4];
                 for &(li, grip, normal) in steps {
                     grips[li] = swing_point(
@@ -953,7 +989,7 @@ impl Sloth {
                     tol[li] = f32::INFINITY;
                 }
                 if pair {
-                    offset_back = w.cfg.offset_back_m * hind_back_share(t);
+                    offset_back = w.cfg.offset_back_m * back_scale * hind_back_share(t);
                 }
             } else {
                 tol = [HOLD_IK_TOLERANCE; 4];
@@ -973,7 +1009,24 @@ impl Sloth {
                 rot,
                 roots: std::array::from_fn(|i| w.rig.root_ws(i, pos, rot)),
             }
+        };
+        let stances: [StanceCheck; SWING_CHECKS.len() + 1] =
+            std::array::from_fn(|k| stance_at(SWING_CHECKS.get(k).copied()));
+        // A step between a branch and a trunk rolls the body fast: between
+        // the IK checks' arc points it could enter a support the points do
+        // not show, so the body is also checked at every 5 % of the arc.
+        let scene = w.scene();
+        let kind_change = steps.iter().any(|&(li, ..)| {
+            scene.support(self.limbs[li].grip.support).kind != scene.support(support).kind
         });
+        if kind_change
+            && TRANSFER_BODY_CHECKS.iter().any(|&t| {
+                let st = stance_at(Some(t));
+                self.body_penetrates(w, st.pos, st.rot)
+            })
+        {
+            return false;
+        }
         let max = w.rig.reach * w.cfg.max_reach_fraction;
         let min = w.rig.reach * MIN_REACH_FRACTION;
         let in_band = stances.iter().all(|st| {
@@ -1089,13 +1142,22 @@ impl Sloth {
             if m.pair.is_some() && pair.is_none() {
                 continue;
             }
+            let mut back_scale = m.back_scale;
             if !as_checked {
                 let reachable = match pair {
-                    Some((pi, p, n)) => self.steps_reachable(
-                        w,
-                        &[(li, hit.point, hit.normal), (pi, p, n)],
-                        m.support,
-                    ),
+                    Some((pi, p, n)) => {
+                        match self.pair_back_scale(
+                            w,
+                            &[(li, hit.point, hit.normal), (pi, p, n)],
+                            m.support,
+                        ) {
+                            Some(k) => {
+                                back_scale = k;
+                                true
+                            }
+                            None => false,
+                        }
+                    }
                     None => self.step_reachable(w, li, hit.point, hit.normal, m.support),
                 };
                 if !reachable {
@@ -1135,6 +1197,9 @@ impl Sloth {
                     // The partner's own turn is taken by this step.
                     l.due = false;
                 }
+            }
+            if pair.is_some() {
+                self.hind_back_scale = back_scale;
             }
             self.failed_searches = 0;
             self.stalled_turns = 0;
@@ -1833,9 +1898,16 @@ impl Sloth {
             return None;
         }
         *checks += 1;
+        let mut back_scale = 0.0;
         let reachable = match pair {
             Some((pi, p2, out2)) => {
-                self.steps_reachable(w, &[(li, approx, out), (pi, p2, out2)], sid)
+                match self.pair_back_scale(w, &[(li, approx, out), (pi, p2, out2)], sid) {
+                    Some(k) => {
+                        back_scale = k;
+                        true
+                    }
+                    None => false,
+                }
             }
             None => self.step_reachable(w, li, approx, out, sid),
         };
@@ -1858,6 +1930,7 @@ impl Sloth {
                 out,
                 point: approx,
                 pair: pair.map(|(pi, p2, out2)| (pi as u8, p2, out2)),
+                back_scale,
             },
         ))
     }
