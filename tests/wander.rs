@@ -6,13 +6,26 @@
 use slothsim::gait::{Judge, LimbPhase, LocomotionConfig, Profile, SpawnHint, Status, Tolerances};
 use slothsim::rig::Rig;
 use slothsim::scene::{Preset, SupportId, TraceScene};
-use slothsim::sim::{Locomotion, SlothState, build_schedule, new_world, spawn_sloth};
+use slothsim::sim::{Locomotion, SlothState, TrunkVariant, build_schedule, new_world, spawn_sloth};
 
 /// Runs one wanderer from the branch_trunk preset's start for `seconds`:
 /// (first time all four limbs held the trunk, the judge's report, the final
 /// direction of travel).
 fn wander_into_trunk(
     angle: f32,
+    seed: u64,
+    seconds: f32,
+) -> (Option<f32>, slothsim::gait::JudgeReport, f32) {
+    wander(angle, TrunkVariant::Up, SupportId(0), seed, seconds)
+}
+
+/// Runs one wanderer from the start of the branch_trunk preset run
+/// `variant` for `seconds`: (first time all four limbs held `target`, the
+/// judge's report, the final direction of travel).
+fn wander(
+    angle: f32,
+    variant: TrunkVariant,
+    target: SupportId,
     seed: u64,
     seconds: f32,
 ) -> (Option<f32>, slothsim::gait::JudgeReport, f32) {
@@ -25,7 +38,7 @@ fn wander_into_trunk(
     )
     .unwrap();
     let mut world = new_world(loco, dt);
-    let st = preset.start;
+    let (st, _) = variant.start_goal(&preset);
     let hint = SpawnHint {
         support: st.support,
         position: st.position,
@@ -40,8 +53,7 @@ fn wander_into_trunk(
     }
     let mut schedule = build_schedule();
     let mut judge = Judge::new(Tolerances::default(), f32::INFINITY);
-    let trunk = SupportId(0);
-    let mut on_trunk_at = None;
+    let mut on_target_at = None;
     for _ in 0..(seconds / dt) as usize {
         schedule.run(&mut world);
         let s = world.get::<SlothState>(e).unwrap().0;
@@ -53,16 +65,16 @@ fn wander_into_trunk(
             "the wanderer stopped at {}",
             s.time
         );
-        if on_trunk_at.is_none()
+        if on_target_at.is_none()
             && s.limbs
                 .iter()
-                .all(|l| l.grip.support == trunk && l.phase == LimbPhase::Planted)
+                .all(|l| l.grip.support == target && l.phase == LimbPhase::Planted)
         {
-            on_trunk_at = Some(s.time);
+            on_target_at = Some(s.time);
         }
     }
     let dir = world.get::<SlothState>(e).unwrap().0.dir;
-    (on_trunk_at, judge.finish(), dir)
+    (on_target_at, judge.finish(), dir)
 }
 
 #[test]
@@ -106,4 +118,36 @@ fn a_wanderer_takes_a_trunk_from_a_branch_head_up_and_climbs_it() {
     }
     // Up or down the trunk is the wanderer's own choice: both happen.
     assert!(dirs.contains(&1.0) && dirs.contains(&-1.0), "{dirs:?}");
+}
+
+#[test]
+fn a_wanderer_climbing_a_trunk_may_leave_it_for_a_rising_branch() {
+    // Climbing head up past a branch that rises from the trunk, a wanderer
+    // takes it or climbs on, by its own choice: some of these seeds take it.
+    let mut took = 0;
+    for seed in 1..=6 {
+        let (at, j, _) = wander(70.0, TrunkVariant::ToBranch, SupportId(1), seed, 90.0);
+        took += usize::from(at.is_some());
+        assert!(
+            j.max_grip_slip_m <= 0.005,
+            "seed {seed}: slip {}",
+            j.max_grip_slip_m
+        );
+        assert!(
+            j.max_surface_gap_m <= 0.01,
+            "seed {seed}: gap {}",
+            j.max_surface_gap_m
+        );
+        assert!(j.max_reach_ratio <= 1.0, "seed {seed}");
+        assert_eq!(j.joint_limit_violations, 0, "seed {seed}");
+        assert!(j.min_limbs_in_contact >= 2, "seed {seed}");
+        assert!(
+            j.max_penetration_m <= 0.01,
+            "seed {seed}: pen {}",
+            j.max_penetration_m
+        );
+        assert_eq!(j.head_below_hips_on_trunk_frames, 0, "seed {seed}");
+        assert_eq!(j.nan_count, 0);
+    }
+    assert!((1..6).contains(&took), "{took} of 6 took the branch");
 }

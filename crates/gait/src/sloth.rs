@@ -108,6 +108,9 @@ const WANDER_MAX_DESCENT_SIN: f32 = -0.05;
 /// Wander mode: trunks taken from a branch are at most this thick where the
 /// branch meets them (metres; thicker ones the limbs cannot climb: README).
 const WANDER_MAX_TRUNK_RADIUS: f32 = 0.2;
+/// Wander mode: a trunk is left for a branch rising at least this steeply
+/// from it (sine; 80° from the trunk's up axis: trunk → branch passes 60–80°).
+const WANDER_MIN_RISE_SIN: f32 = 0.17;
 /// Side steps around a trunk (SPEC `find_side_step`): each step places its
 /// grip around the side the body faces the trunk from, turned about the axis
 /// toward the goal's side by at most this much (radians) and ...
@@ -1308,12 +1311,15 @@ impl Sloth {
     /// but a trunk goes on past the branch, and climbing it would never end.
     /// `None` when the branch is out of reach: the limb climbs the trunk.
     fn goal_branch_search(&mut self, w: &World<'_>, li: usize) -> Option<Search> {
-        let (gs, _) = self.goal?;
         let cur = self.limbs[li].grip.support;
+        let gs = if self.wander {
+            self.wander_branch(w, li, cur)?
+        } else {
+            self.goal?.0
+        };
         let scene = w.scene();
         let neighbours = w.adjacency.neighbours(cur);
-        if self.wander
-            || !self.leads(Limb::ALL[li])
+        if !self.leads(Limb::ALL[li])
             || scene.support(cur).kind != SupportKind::Trunk
             || scene.support(gs).kind != SupportKind::Branch
             || !neighbours.contains(&gs)
@@ -1333,6 +1339,38 @@ impl Sloth {
             self.transfer = transfer;
         }
         search
+    }
+
+    /// Wander mode: a branch to leave trunk `trunk` for, tried before the
+    /// trunk by a fore limb climbing past it (head first, no transfer under
+    /// way): a neighbouring branch rising from the trunk (its first metres at
+    /// least [`WANDER_MIN_RISE_SIN`] uphill: trunk → branch holds there), taken
+    /// or passed by this sloth's own choice.
+    fn wander_branch(&self, w: &World<'_>, li: usize, trunk: SupportId) -> Option<SupportId> {
+        let scene = w.scene();
+        if self.dir <= 0.0
+            || self.transfer.is_some()
+            || scene.support(trunk).kind != SupportKind::Trunk
+        {
+            return None;
+        }
+        let grip = self.limbs[li].grip.point;
+        w.adjacency.neighbours(trunk).iter().copied().find(|&b| {
+            let s = scene.support(b);
+            if s.kind != SupportKind::Branch {
+                return false;
+            }
+            let a = project(s, grip);
+            // Away from the trunk: toward the branch end farther from it.
+            let away = if a.u < 0.5 * s.length() {
+                a.tangent
+            } else {
+                -a.tangent
+            };
+            let take =
+                mix64(self.seed ^ mix64(u64::from(b.0) ^ (u64::from(self.turns) << 32))) & 1 == 0;
+            take && away.y >= WANDER_MIN_RISE_SIN
+        })
     }
 
     /// Wander mode, at a dead end or blocked: reverse the travel direction
