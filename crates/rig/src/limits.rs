@@ -189,9 +189,12 @@ impl JointLimit {
         // The judge asks this of every joint every frame, and the solver
         // leaves many joints exactly at a limit: the trig-free path below
         // answers all but real violations (and degenerate rotations).
-        if let Some(v) = self.violation_near(q) {
-            return v;
-        }
+        self.violation_near(q)
+            .unwrap_or_else(|| self.violation_exact(q))
+    }
+
+    /// [`Self::violation`] straight from the swing–twist angles (`atan2`).
+    fn violation_exact(&self, q: Quat) -> f32 {
         match *self {
             JointLimit::Free => 0.0,
             JointLimit::Hinge { axis, min, max } => {
@@ -506,29 +509,6 @@ mod tests {
         assert_eq!(lim.clamp(inside), inside);
     }
 
-    /// The violation straight from the swing–twist angles (no fast path).
-    fn violation_exact(lim: &JointLimit, q: Quat) -> f32 {
-        match *lim {
-            JointLimit::Free => 0.0,
-            JointLimit::Hinge { axis, min, max } => {
-                let (swing, twist) = swing_twist_angles(q, axis);
-                swing.max(min - twist).max(twist - max).max(0.0)
-            }
-            JointLimit::Ball {
-                twist_axis,
-                swing_max,
-                twist_min,
-                twist_max,
-            } => {
-                let (swing, twist) = swing_twist_angles(q, twist_axis);
-                (swing - swing_max)
-                    .max(twist_min - twist)
-                    .max(twist - twist_max)
-                    .max(0.0)
-            }
-        }
-    }
-
     proptest::proptest! {
         /// The trig-free fast path agrees with the exact angles, for rotations
         /// anywhere and right at the limits (a twist `at` a limit, nudged by
@@ -553,7 +533,7 @@ mod tests {
             let near = quat_axis_angle(perp, off) * quat_axis_angle(axis, twist);
             for lim in &limits {
                 for q in [anywhere, near, -near] {
-                    let (fast, exact) = (lim.violation(q), violation_exact(lim, q));
+                    let (fast, exact) = (lim.violation(q), lim.violation_exact(q));
                     proptest::prop_assert!(
                         (fast - exact).abs() <= 1e-6 + 1e-6 * exact,
                         "{lim:?} {q:?}: fast {fast} exact {exact}"
