@@ -475,6 +475,16 @@ struct BodyOffset {
     hind_back_m: f32,
 }
 
+/// Which side a body walking a trunk faces it from (see [`Sloth::body_frame`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum BodySide {
+    /// From where the body is now: what `body_average` draws, frame by
+    /// frame, so the drawn side follows the grips' mean a few frames late.
+    Body,
+    /// From the grips' mean: where the drawn side settles.
+    Grips,
+}
+
 /// Formula 7's offset of the body below the paws for limbs with trunk
 /// weights `weights`: the branch offset, blended toward the trunk offset by
 /// the share of limbs on a trunk.
@@ -602,6 +612,8 @@ struct StanceCheck {
     tol: [f32; 4],
     pos: Vec3,
     rot: Quat,
+    /// The body offset it was placed with.
+    offset: BodyOffset,
     /// The chain roots of that body.
     roots: [RootTransform; 4],
 }
@@ -795,7 +807,13 @@ impl Sloth {
     /// transfer's side: a roll about the long axis in one direction, chosen
     /// when the transfer started, so it never passes through the degenerate
     /// "up toward the trunk along forward" of a body facing the trunk.
-    fn body_frame(&self, w: &World<'_>, t: &[Vec3; 4], trunk_share: f32) -> (Vec3, Vec3) {
+    fn body_frame(
+        &self,
+        w: &World<'_>,
+        t: &[Vec3; 4],
+        trunk_share: f32,
+        side: BodySide,
+    ) -> (Vec3, Vec3) {
         let (lf, rf, lh, rh) = (
             t[Limb::LF.index()],
             t[Limb::RF.index()],
@@ -818,7 +836,10 @@ impl Sloth {
             Vec3::Y * (1.0 - r) - tr.side * r - tr.away * (TRANSFER_AWAY * 4.0 * r * (1.0 - r))
         } else if on_trunk {
             let a = project(s, mean);
-            let body_side = self.body_pos - a.point;
+            let body_side = match side {
+                BodySide::Body => self.body_pos - a.point,
+                BodySide::Grips => mean - a.point,
+            };
             -(body_side - fwd * fwd.dot(body_side)).normalize_or(self.body_rot * Vec3::Y * -1.0)
         } else {
             Vec3::Y
@@ -833,7 +854,7 @@ impl Sloth {
         if let Some(t) = self.hind_pair_swing_t() {
             offset.hind_back_m = w.cfg.offset_back_m * self.hind_back_scale * hind_back_share(t);
         }
-        self.body_for_targets(w, &self.targets(), offset)
+        self.body_for_targets(w, &self.targets(), offset, BodySide::Body)
     }
 
     /// Swing progress of `transfer_to_branch`'s hind pair while it travels
@@ -867,8 +888,14 @@ impl Sloth {
         ready.then_some(partner)
     }
 
-    fn body_for_targets(&self, w: &World<'_>, t: &[Vec3; 4], offset: BodyOffset) -> (Vec3, Quat) {
-        let (f, up) = self.body_frame(w, t, offset.trunk_share);
+    fn body_for_targets(
+        &self,
+        w: &World<'_>,
+        t: &[Vec3; 4],
+        offset: BodyOffset,
+        side: BodySide,
+    ) -> (Vec3, Quat) {
+        let (f, up) = self.body_frame(w, t, offset.trunk_share, side);
         let mean = (t[0] + t[1] + t[2] + t[3]) * 0.25;
         let (pos, rot) = (mean - up * offset.metres, rotation_from(f, up));
         match self.transfer {
@@ -1004,12 +1031,13 @@ impl Sloth {
             }
             let mut offset = body_offset(w, weights);
             offset.hind_back_m = offset_back;
-            let (pos, rot) = self.body_for_targets(w, &grips, offset);
+            let (pos, rot) = self.body_for_targets(w, &grips, offset, BodySide::Body);
             StanceCheck {
                 grips,
                 tol,
                 pos,
                 rot,
+                offset,
                 roots: std::array::from_fn(|i| w.rig.root_ws(i, pos, rot)),
             }
         };
@@ -1040,11 +1068,23 @@ impl Sloth {
             })
         });
         let stepping: [bool; 4] = std::array::from_fn(|i| steps.iter().any(|s| s.0 == i));
-        in_band
-            && !stances
-                .iter()
-                .any(|st| self.body_penetrates(w, st.pos, st.rot))
-            && self.stances_hold(w, &stepping, &stances)
+        // Walking a trunk, the drawn body faces it from a side that lags
+        // the grips' mean by a few frames: each stance's body is checked
+        // from where the body is now and from where it settles (the grips'
+        // mean), so the side drawn in between is covered too.
+        let fore = self.limbs[Limb::LF.index()].grip.support;
+        let trunk_walk = self.transfer.is_none()
+            && scene.support(fore).kind == SupportKind::Trunk
+            && self.limbs[Limb::RF.index()].grip.support == fore;
+        let penetrates = |st: &StanceCheck| {
+            self.body_penetrates(w, st.pos, st.rot)
+                || (trunk_walk && {
+                    let (pos, rot) =
+                        self.body_for_targets(w, &st.grips, st.offset, BodySide::Grips);
+                    self.body_penetrates(w, pos, rot)
+                })
+        };
+        in_band && !stances.iter().any(penetrates) && self.stances_hold(w, &stepping, &stances)
     }
 
     /// The CCD part of [`Self::step_reachable`]: every limb with a finite
@@ -1711,7 +1751,7 @@ impl Sloth {
         }
         let grips = next.limbs.map(|l| l.grip.point);
         let offset = body_offset(w, next.trunk_weights(w));
-        (next.body_pos, next.body_rot) = next.body_for_targets(w, &grips, offset);
+        (next.body_pos, next.body_rot) = next.body_for_targets(w, &grips, offset, BodySide::Body);
         for lj in 0..4 {
             let root = w.rig.root_ws(lj, next.body_pos, next.body_rot);
             next.limbs[lj].root = root.position.into();
