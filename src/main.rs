@@ -39,6 +39,16 @@ enum Command {
 }
 
 fn main() -> ExitCode {
+    // Output piped into a reader that stops early (`| head`) ends the
+    // process quietly, as other command-line tools do, instead of a panic
+    // in `println!`. Files are written under a temporary name and renamed,
+    // so an interrupted run leaves no output that looks complete.
+    #[cfg(unix)]
+    // SAFETY: restoring the default disposition of SIGPIPE before any
+    // thread starts; no handler is installed.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Scene(cmd) => scene_cmd::run(cmd).map(|()| true),
