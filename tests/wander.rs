@@ -151,3 +151,63 @@ fn a_wanderer_climbing_a_trunk_may_leave_it_for_a_rising_branch() {
     }
     assert!((1..6).contains(&took), "{took} of 6 took the branch");
 }
+
+#[test]
+fn a_stopped_wanderer_tries_again_after_a_wait() {
+    // A wanderer that found no step after two turn-backs stops (`NoGrip`)
+    // and tries again 5 s later: sloths that boxed it in may have moved on.
+    let preset = Preset::by_name("pole", None).unwrap();
+    let dt = 1.0 / 60.0;
+    let loco = Locomotion::new(
+        LocomotionConfig::profile(Profile::Free),
+        &Rig::sloth(),
+        TraceScene::new(preset.scene.clone()),
+    )
+    .unwrap();
+    let mut world = new_world(loco, dt);
+    let st = preset.start;
+    let hint = SpawnHint {
+        support: st.support,
+        position: st.position,
+        forward: st.forward,
+        body_side: st.body_side,
+    };
+    let e = spawn_sloth(&mut world, 0, &hint, None);
+    {
+        let mut s = world.get_mut::<SlothState>(e).unwrap();
+        s.0.wander = true;
+        s.0.status = Status::NoGrip;
+        s.0.stalled_turns = 2;
+        s.0.resume_at = Some(5.0);
+    }
+    let mut schedule = build_schedule();
+    let mut resumed_at = None;
+    let mut first_step_at = None;
+    for _ in 0..(12.0 / dt) as usize {
+        schedule.run(&mut world);
+        let s = world.get::<SlothState>(e).unwrap().0;
+        if s.time < 5.0 - 1e-3 {
+            assert_eq!(
+                s.status,
+                Status::NoGrip,
+                "moved while waiting at {}",
+                s.time
+            );
+            assert!(s.limbs.iter().all(|l| l.phase == LimbPhase::Planted));
+        }
+        if resumed_at.is_none() && s.status == Status::Moving {
+            resumed_at = Some(s.time);
+            assert_eq!((s.stalled_turns, s.resume_at), (0, None));
+        }
+        if first_step_at.is_none() && s.limbs.iter().any(|l| l.phase == LimbPhase::Swinging) {
+            first_step_at = Some(s.time);
+        }
+    }
+    let resumed = resumed_at.expect("the wanderer never tried again");
+    assert!((resumed - 5.0).abs() <= dt * 1.5, "resumed at {resumed}");
+    let stepped = first_step_at.expect("no step after resuming");
+    assert!(
+        stepped >= resumed,
+        "stepped at {stepped}, before resuming at {resumed}"
+    );
+}

@@ -68,6 +68,9 @@ const MIN_REACH_FRACTION: f32 = 0.3;
 const STOP_AFTER_FAILED_SEARCHES: u8 = 8;
 /// Wander mode: stop after this many turn-backs in a row without a step.
 const MAX_STALLED_TURNS: u8 = 2;
+/// Wander mode: a sloth stopped that way tries again after this long
+/// (seconds): sloths that boxed it in may have moved on.
+const WANDER_RETRY_S: f32 = 5.0;
 /// A step is taken only if CCD (within joint limits) gets the stepping limb's
 /// claw this close to its new grip from the stance that step implies…
 const STANCE_IK_TOLERANCE: f32 = 0.0015;
@@ -317,6 +320,9 @@ pub struct Sloth {
     /// The share of `offset_back_m` the hind pair's swing onto a branch
     /// uses (the most its stance checks allowed).
     pub hind_back_scale: f32,
+    /// Wander mode, stopped (`NoGrip`): the time it tries again (the way
+    /// may have been blocked by sloths that since moved on).
+    pub resume_at: Option<f32>,
 }
 
 /// Serde for [`ChainPose`] (four quaternions, bit-exact through serde's f32).
@@ -703,6 +709,7 @@ impl Sloth {
             seed: 0,
             turns: 0,
             stalled_turns: 0,
+            resume_at: None,
             transfer: None,
             hind_back_scale: 1.0,
         };
@@ -1338,6 +1345,9 @@ impl Sloth {
                         self.turn_back();
                     } else {
                         self.status = Status::NoGrip;
+                        if self.wander {
+                            self.resume_at = Some(self.time + WANDER_RETRY_S);
+                        }
                     }
                 }
                 return;
@@ -2135,6 +2145,14 @@ impl Sloth {
             && d <= self.goal_tolerance
         {
             self.status = Status::Arrived;
+        }
+        if let Some(t) = self.resume_at
+            && self.time >= t
+        {
+            self.resume_at = None;
+            self.status = Status::Moving;
+            self.stalled_turns = 0;
+            self.failed_searches = 0;
         }
         if self.status != Status::Moving {
             return;
