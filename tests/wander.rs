@@ -19,6 +19,36 @@ fn wander_into_trunk(
     wander(angle, TrunkVariant::Up, SupportId(0), seed, seconds)
 }
 
+/// A world with one wanderer (`seed`) spawned at `start` on `preset`'s
+/// scene, free profile: (world, its entity, the time step).
+fn spawn_wanderer(
+    preset: &Preset,
+    start: slothsim::scene::StartHint,
+    seed: u64,
+) -> (bevy_ecs::world::World, bevy_ecs::entity::Entity, f32) {
+    let dt = 1.0 / 60.0;
+    let loco = Locomotion::new(
+        LocomotionConfig::profile(Profile::Free),
+        &Rig::sloth(),
+        TraceScene::new(preset.scene.clone()),
+    )
+    .unwrap();
+    let mut world = new_world(loco, dt);
+    let hint = SpawnHint {
+        support: start.support,
+        position: start.position,
+        forward: start.forward,
+        body_side: start.body_side,
+    };
+    let e = spawn_sloth(&mut world, 0, &hint, None);
+    {
+        let mut s = world.get_mut::<SlothState>(e).unwrap();
+        s.0.wander = true;
+        s.0.seed = seed;
+    }
+    (world, e, dt)
+}
+
 /// Runs one wanderer from the start of the branch_trunk preset run
 /// `variant` for `seconds`: (first time all four limbs held `target`, the
 /// judge's report, the final direction of travel).
@@ -30,27 +60,8 @@ fn wander(
     seconds: f32,
 ) -> (Option<f32>, slothsim::gait::JudgeReport, f32) {
     let preset = Preset::by_name("branch_trunk", Some(angle)).unwrap();
-    let dt = 1.0 / 60.0;
-    let loco = Locomotion::new(
-        LocomotionConfig::profile(Profile::Free),
-        &Rig::sloth(),
-        TraceScene::new(preset.scene.clone()),
-    )
-    .unwrap();
-    let mut world = new_world(loco, dt);
     let (st, _) = variant.start_goal(&preset);
-    let hint = SpawnHint {
-        support: st.support,
-        position: st.position,
-        forward: st.forward,
-        body_side: st.body_side,
-    };
-    let e = spawn_sloth(&mut world, 0, &hint, None);
-    {
-        let mut s = world.get_mut::<SlothState>(e).unwrap();
-        s.0.wander = true;
-        s.0.seed = seed;
-    }
+    let (mut world, e, dt) = spawn_wanderer(&preset, st, seed);
     let mut schedule = build_schedule();
     let mut judge = Judge::new(Tolerances::default(), f32::INFINITY);
     let mut on_target_at = None;
@@ -157,25 +168,9 @@ fn a_stopped_wanderer_tries_again_after_a_wait() {
     // A wanderer that found no step after two turn-backs stops (`NoGrip`)
     // and tries again 5 s later: sloths that boxed it in may have moved on.
     let preset = Preset::by_name("pole", None).unwrap();
-    let dt = 1.0 / 60.0;
-    let loco = Locomotion::new(
-        LocomotionConfig::profile(Profile::Free),
-        &Rig::sloth(),
-        TraceScene::new(preset.scene.clone()),
-    )
-    .unwrap();
-    let mut world = new_world(loco, dt);
-    let st = preset.start;
-    let hint = SpawnHint {
-        support: st.support,
-        position: st.position,
-        forward: st.forward,
-        body_side: st.body_side,
-    };
-    let e = spawn_sloth(&mut world, 0, &hint, None);
+    let (mut world, e, dt) = spawn_wanderer(&preset, preset.start, 0);
     {
         let mut s = world.get_mut::<SlothState>(e).unwrap();
-        s.0.wander = true;
         s.0.status = Status::NoGrip;
         s.0.stalled_turns = 2;
         s.0.resume_at = Some(5.0);

@@ -831,10 +831,8 @@ impl Sloth {
         let fwd = ((rf - rh).normalize_or_zero() + (lf - lh).normalize_or_zero())
             .normalize_or(self.body_rot * Vec3::Z);
         let mean = (lf + rf + lh + rh) * 0.25;
-        let fore_support = self.limbs[Limb::LF.index()].grip.support;
-        let s = w.scene().support(fore_support);
-        let on_trunk = s.kind == SupportKind::Trunk
-            && self.limbs[Limb::RF.index()].grip.support == fore_support;
+        let s = w.scene().support(self.limbs[Limb::LF.index()].grip.support);
+        let on_trunk = self.fore_on_trunk(w);
         let up = if let Some(tr) = self.transfer {
             // Rolled by a power of the share (the roll leads the limbs a
             // little), and pushed off the trunk mid-transfer so the body
@@ -853,6 +851,13 @@ impl Sloth {
         };
         let up = (up - fwd * fwd.dot(up)).normalize_or(self.body_rot * Vec3::Y);
         (fwd, up)
+    }
+
+    /// Both fore limbs hold the same trunk (the body faces it).
+    fn fore_on_trunk(&self, w: &World<'_>) -> bool {
+        let fore = self.limbs[Limb::LF.index()].grip.support;
+        w.scene().support(fore).kind == SupportKind::Trunk
+            && self.limbs[Limb::RF.index()].grip.support == fore
     }
 
     /// Formulas 6 and 7 for the current targets: (position, rotation).
@@ -1079,10 +1084,7 @@ impl Sloth {
         // the grips' mean by a few frames: each stance's body is checked
         // from where the body is now and from where it settles (the grips'
         // mean), so the side drawn in between is covered too.
-        let fore = self.limbs[Limb::LF.index()].grip.support;
-        let trunk_walk = self.transfer.is_none()
-            && scene.support(fore).kind == SupportKind::Trunk
-            && self.limbs[Limb::RF.index()].grip.support == fore;
+        let trunk_walk = self.transfer.is_none() && self.fore_on_trunk(w);
         let penetrates = |st: &StanceCheck| {
             self.body_penetrates(w, st.pos, st.rot)
                 || (trunk_walk && {
@@ -2214,9 +2216,7 @@ impl Sloth {
         let head = to_ws(w.rig.head_ms);
         let hips = to_ws(w.rig.hips_ms);
         let torso = [to_ws(w.rig.torso_ms[0]), to_ws(w.rig.torso_ms[1])];
-        let fore = scene.support(self.limbs[Limb::LF.index()].grip.support);
-        let on_trunk =
-            fore.kind == SupportKind::Trunk && self.limbs[Limb::RF.index()].grip.support == fore.id;
+        let on_trunk = self.fore_on_trunk(w);
         let penetration = self.near_supports(w).fold(0.0, |p, id| {
             torso_penetration(scene.support(id), w.adjacency.segment_chunks(id), torso, p)
         });
