@@ -5,7 +5,10 @@
 //! Model space: metres, +Y up, body forward +Z, left = +X (glTF). The sloth hangs
 //! *below* its branch, so the rest pose has every limb reaching up (+Y) from its
 //! shoulder/hip, slightly outward and forward/back. The rest pose is the *neutral* pose
-//! of the joint limits (limits are centred on it).
+//! of the joint limits (limits are centred on it): the amplitudes are ranges swept
+//! during contact, so it is the mid-stance pose, chosen so that at the default hang the
+//! claw reaches a band along the support centred near the girdle and as long as the
+//! amplitudes allow (see the crate README and `examples/reach_band.rs`).
 
 use glam::{Quat, Vec3, Vec3A};
 
@@ -27,16 +30,16 @@ const fn bone(length: f32, pitch_deg: f32) -> BoneDef {
 /// Fore limb, girdle first: 0.06 + 0.14 + 0.13 + 0.07 = 0.40 m.
 const FORE: [BoneDef; 4] = [
     bone(0.06, 10.0),
-    bone(0.14, -15.0),
-    bone(0.13, 45.0),
-    bone(0.07, 35.0),
+    bone(0.14, -35.0),
+    bone(0.13, 30.0),
+    bone(0.07, 45.0),
 ];
 /// Hind limb, girdle first: 0.05 + 0.15 + 0.13 + 0.07 = 0.40 m.
 const HIND: [BoneDef; 4] = [
     bone(0.05, 0.0),
-    bone(0.15, 30.0),
-    bone(0.13, -45.0),
-    bone(0.07, -35.0),
+    bone(0.15, 45.0),
+    bone(0.13, -20.0),
+    bone(0.07, -60.0),
 ];
 /// Outward tilt of the limb plane (degrees).
 const FORE_SPLAY_DEG: f32 = 15.0;
