@@ -51,7 +51,7 @@ const CHECK_MAX_ITERATIONS: u32 = 32;
 const CHECK_POLISH_MAX_ERROR: f32 = 0.01;
 /// The body turns up to this fast (rad/s) without smoothing lag; faster
 /// changes of formula 6's rotation are smoothed (`body_smoothing_s`).
-const BODY_FREE_TURN_RATE: f32 = 0.5;
+const BODY_FREE_TURN_RATE: f32 = 1.5;
 /// A limb settled short of its target stays so while the target moves less
 /// than this (metres) in the limb's root frame.
 const SETTLED_MOVE: f32 = 1e-5;
@@ -82,6 +82,10 @@ const STANCE_MAX_PENETRATION: f32 = 0.005;
 /// [`SWING_CHECKS`]).
 const SWING_IK_TOLERANCE: f32 = 0.0035;
 
+/// Leg order: a hind grip stays this far behind every fore grip along the body (m).
+const LEG_ORDER_MARGIN: f32 = 0.05;
+/// A side's fore and hind grips stay this far apart along the body (m).
+const SAME_SIDE_SPACING: f32 = 0.15;
 /// A limb never steps further ahead of the other limb of its girdle than this
 /// fraction of the max step, so that limb keeps a window to step into (it
 /// may not land behind this one).
@@ -447,7 +451,8 @@ fn smoothstep(t: f32) -> f32 {
 }
 
 /// The swing arc at progress `t` from grip `from` to grip `to` (points and
-/// surface normals): eased along the chord, lifted clear of the support.
+/// surface normals): eased along the chord, lifted clear of the support
+/// along the normals' mean (`fallback`, the body's down, where they cancel).
 fn swing_point(
     from: (Vec3, Vec3),
     to: (Vec3, Vec3),
@@ -455,7 +460,11 @@ fn swing_point(
     clearance: f32,
     fallback: Vec3,
 ) -> Vec3 {
-    let n = (from.1 + to.1).normalize_or(fallback);
+    // Between nearly opposite normals (a grip crossing to the other side of
+    // a support) their mean says little: it leans toward `fallback` (away
+    // from the body's supports), so the arc does not swing on a rounding.
+    let sum = from.1 + to.1;
+    let n = (sum + fallback * (1.0 - sum.length()).max(0.0)).normalize_or(fallback);
     let lift = clearance * (std::f32::consts::PI * t).sin();
     from.0.lerp(to.0, smoothstep(t)) + n * lift
 }
@@ -1936,10 +1945,24 @@ impl Sloth {
         let proj = |p: Vec3| p.dot(body_fwd);
         let fore_min = proj(self.limbs[Limb::LF.index()].grip.point)
             .min(proj(self.limbs[Limb::RF.index()].grip.point));
-        if !limb.is_fore() && proj(approx) > fore_min - 0.05 {
+        let hind_max = proj(self.limbs[Limb::LH.index()].grip.point)
+            .max(proj(self.limbs[Limb::RH.index()].grip.point));
+        if !limb.is_fore() && proj(approx) > fore_min - LEG_ORDER_MARGIN {
             return None;
         }
-        if pair.is_some_and(|(_, p2, _)| proj(p2) > fore_min - 0.05) {
+        // Tail first, the trailing fore limbs step toward the hind limbs:
+        // never level with them (formula 6's hind → fore directions would
+        // turn the body on centimetres of grip change).
+        if limb.is_fore() && proj(approx) < hind_max + LEG_ORDER_MARGIN {
+            return None;
+        }
+        // A side's fore and hind grips keep apart along the body: formula 6
+        // takes the body's heading from them.
+        let same_side = self.limbs[limb.same_side().index()].grip.point;
+        if (proj(approx) - proj(same_side)).abs() < SAME_SIDE_SPACING {
+            return None;
+        }
+        if pair.is_some_and(|(_, p2, _)| proj(p2) > fore_min - LEG_ORDER_MARGIN) {
             return None;
         }
         let opp = self.limbs[limb.opposite().index()].grip.point;

@@ -52,6 +52,16 @@ impl Limb {
         }
     }
 
+    /// The other limb of the same side (LF ↔ LH, RF ↔ RH).
+    pub const fn same_side(self) -> Limb {
+        match self {
+            Limb::LF => Limb::LH,
+            Limb::LH => Limb::LF,
+            Limb::RF => Limb::RH,
+            Limb::RH => Limb::RF,
+        }
+    }
+
     /// Parse `"LF"`/`"RF"`/`"LH"`/`"RH"`.
     pub fn from_name(name: &str) -> Option<Limb> {
         Limb::ALL.into_iter().find(|l| l.name() == name)
