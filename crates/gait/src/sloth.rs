@@ -2100,8 +2100,39 @@ impl Sloth {
     // ---------------------------------------------------------------- stage 4
 
     /// CcdSolve: each limb from its root toward its target.
+    ///
+    /// Grips must not slide (SPEC): where the averaged body leaves a planted
+    /// claw short of its grip (the step checks sample a swing at a few arc
+    /// points only), the body is moved by the planted limbs' mean residual
+    /// and the limbs solved again; kept only if that brings the claws closer.
     pub fn solve_limbs(&mut self, w: &World<'_>) -> u32 {
-        self.solve_limbs_with(w, w.ccd)
+        let mut iterations = self.solve_limbs_with(w, w.ccd);
+        let (residual, err) = self.planted_residual();
+        if err > STANCE_IK_TOLERANCE {
+            let saved = (self.body_pos, self.limbs);
+            self.body_pos += residual;
+            iterations += self.solve_limbs_with(w, w.ccd);
+            if self.planted_residual().1 >= err {
+                (self.body_pos, self.limbs) = saved;
+            }
+        }
+        iterations
+    }
+
+    /// The mean of the planted limbs' claw → target vectors over those off
+    /// by more than [`STANCE_IK_TOLERANCE`], and the largest planted error.
+    fn planted_residual(&self) -> (Vec3, f32) {
+        let (mut sum, mut n, mut max) = (Vec3::ZERO, 0.0f32, 0.0f32);
+        for l in self.limbs.iter().filter(|l| l.phase != LimbPhase::Swinging) {
+            let r = l.target - l.effector;
+            let e = r.length();
+            max = max.max(e);
+            if e > STANCE_IK_TOLERANCE {
+                sum += r;
+                n += 1.0;
+            }
+        }
+        (if n > 0.0 { sum / n } else { Vec3::ZERO }, max)
     }
 
     fn solve_limbs_with(&mut self, w: &World<'_>, params: &CcdParams) -> u32 {
@@ -2150,6 +2181,21 @@ impl Sloth {
                     iterations += r.iterations;
                     if r.error > prev * 0.9 {
                         break;
+                    }
+                }
+                // A planted claw the warm start left off its grip: the swing
+                // may have carried the limb into a fold (a local minimum at
+                // the joint limits) the step check, started elsewhere, did not
+                // use. A cold start gets another chance (rare: a limb stays
+                // settled until its target moves).
+                if r.error > STANCE_IK_TOLERANCE && l.phase != LimbPhase::Swinging {
+                    let mut cold = ChainPose::NEUTRAL;
+                    let c =
+                        slothsim_rig::solve(&w.rig.chains[li], root, l.target, &mut cold, params);
+                    iterations += c.iterations;
+                    if c.error < r.error {
+                        l.pose = cold;
+                        r = c;
                     }
                 }
                 l.settled_ls = (r.error > params.tolerance).then_some(targets_ls[li]);
