@@ -84,6 +84,8 @@ const SWING_IK_TOLERANCE: f32 = 0.0035;
 
 /// Leg order: a hind grip stays this far behind every fore grip along the body (m).
 const LEG_ORDER_MARGIN: f32 = 0.05;
+/// A branch → trunk transfer: how far a fore grip may lead the hind grips along the body (m).
+const MAX_TRANSFER_SPREAD: f32 = 0.55;
 /// A side's fore and hind grips stay this far apart along the body (m).
 const SAME_SIDE_SPACING: f32 = 0.15;
 /// A limb never steps further ahead of the other limb of its girdle than this
@@ -1954,6 +1956,15 @@ impl Sloth {
         // never level with them (formula 6's hind → fore directions would
         // turn the body on centimetres of grip change).
         if limb.is_fore() && proj(approx) < hind_max + LEG_ORDER_MARGIN {
+            return None;
+        }
+        // Onto a trunk, the fore limbs climb no further ahead of the hind
+        // limbs than the hind limbs can follow from the branch.
+        if transfer.is_some()
+            && limb.is_fore()
+            && s.kind == SupportKind::Trunk
+            && proj(approx) - hind_max > MAX_TRANSFER_SPREAD
+        {
             return None;
         }
         // A side's fore and hind grips keep apart along the body: formula 6
