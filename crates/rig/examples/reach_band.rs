@@ -132,18 +132,26 @@ fn main() {
     let starts: usize = get("--starts").map_or(40, |s| s.parse().unwrap());
     let fl = [0.06, 0.14, 0.13, 0.07];
     let hl = [0.05, 0.15, 0.13, 0.07];
-    let fc = chain(
-        Limb::LF,
-        std::array::from_fn(|i| (fl[i], fore[i])),
-        fsplay,
-        Vec3::new(0.07, 0.05, 0.0),
-    );
-    let hc = chain(
-        Limb::LH,
-        std::array::from_fn(|i| (hl[i], hind[i])),
-        hsplay,
-        Vec3::new(0.06, 0.04, 0.0),
-    );
+    // The left fore or hind chain with bone pitches `pit` (degrees).
+    let limb_chain = |fore_limb: bool, pit: [f32; 4]| {
+        if fore_limb {
+            chain(
+                Limb::LF,
+                std::array::from_fn(|i| (fl[i], pit[i])),
+                fsplay,
+                Vec3::new(0.07, 0.05, 0.0),
+            )
+        } else {
+            chain(
+                Limb::LH,
+                std::array::from_fn(|i| (hl[i], pit[i])),
+                hsplay,
+                Vec3::new(0.06, 0.04, 0.0),
+            )
+        }
+    };
+    let fc = limb_chain(true, fore);
+    let hc = limb_chain(false, hind);
     if let Some(which) = get("--local") {
         let fore_limb = which == "fore";
         let base = if fore_limb { fore } else { hind };
@@ -162,21 +170,7 @@ fn main() {
                         base[2] + 5.0 * b as f32,
                         base[3] + 5.0 * c as f32,
                     ];
-                    let ch = if fore_limb {
-                        chain(
-                            Limb::LF,
-                            std::array::from_fn(|i| (fl[i], pit[i])),
-                            fsplay,
-                            Vec3::new(0.07, 0.05, 0.0),
-                        )
-                    } else {
-                        chain(
-                            Limb::LH,
-                            std::array::from_fn(|i| (hl[i], pit[i])),
-                            hsplay,
-                            Vec3::new(0.06, 0.04, 0.0),
-                        )
-                    };
+                    let ch = limb_chain(fore_limb, pit);
                     let hr = if fore_limb { h - 0.02 } else { h };
                     let r = band_step(&ch, hr, radius, starts, 2);
                     let (len, centre) = longest(&r, 0.02);
@@ -234,21 +228,7 @@ fn main() {
                     for p3 in (-80..=60).step_by(20) {
                         let p0 = if fore_limb { fore[0] } else { hind[0] };
                         let pit = [p0, p1 as f32, p2 as f32, p3 as f32];
-                        let c = if fore_limb {
-                            chain(
-                                Limb::LF,
-                                std::array::from_fn(|i| (fl[i], pit[i])),
-                                fsplay,
-                                Vec3::new(0.07, 0.05, 0.0),
-                            )
-                        } else {
-                            chain(
-                                Limb::LH,
-                                std::array::from_fn(|i| (hl[i], pit[i])),
-                                hsplay,
-                                Vec3::new(0.06, 0.04, 0.0),
-                            )
-                        };
+                        let c = limb_chain(fore_limb, pit);
                         let hr = if fore_limb { hh - 0.02 } else { hh };
                         let r = band_step(&c, hr, radius, starts, 2);
                         let (len, centre) = longest(&r, 0.02);
