@@ -606,17 +606,42 @@ fn reach_check(
     tol: f32,
     base: &CcdParams,
 ) -> (bool, f32) {
-    let mut params = CcdParams {
+    let params = CcdParams {
         tolerance: tol,
+        ..check_params(base)
+    };
+    let r = slothsim_rig::solve(chain, root, target_ws, pose, &params);
+    reach_check_polish(chain, root, target_ws, pose, tol, base, r.error)
+}
+
+/// The sweeps' parameters of [`reach_check`] (tolerance aside).
+fn check_params(base: &CcdParams) -> CcdParams {
+    CcdParams {
         min_improvement: CHECK_MIN_IMPROVEMENT,
         refine: false,
         ..*base
-    };
-    let r = slothsim_rig::solve(chain, root, target_ws, pose, &params);
-    if r.error <= tol || r.error > CHECK_POLISH_MAX_ERROR || !base.refine {
-        return (r.error <= tol, r.error);
     }
-    params.refine = true;
+}
+
+/// The rest of [`reach_check`] after its sweeps ended at `error` with the
+/// limb at `pose`: the polish where it may help.
+fn reach_check_polish(
+    chain: &slothsim_rig::LimbChain,
+    root: slothsim_rig::RootTransform,
+    target_ws: Vec3,
+    pose: &mut ChainPose,
+    tol: f32,
+    base: &CcdParams,
+    error: f32,
+) -> (bool, f32) {
+    if error <= tol || error > CHECK_POLISH_MAX_ERROR || !base.refine {
+        return (error <= tol, error);
+    }
+    let params = CcdParams {
+        tolerance: tol,
+        refine: true,
+        ..check_params(base)
+    };
     let r = slothsim_rig::solve(chain, root, target_ws, pose, &params);
     (r.error <= tol, r.error)
 }
@@ -1090,7 +1115,6 @@ impl Sloth {
                 !(d > max || d < min)
             })
         });
-        let stepping: [bool; 4] = std::array::from_fn(|i| steps.iter().any(|s| s.0 == i));
         // Walking a trunk, the drawn body faces it from a side that lags
         // the grips' mean by a few frames: each stance's body is checked
         // from where the body is now and from where it settles (the grips'
@@ -1104,38 +1128,47 @@ impl Sloth {
                     self.body_penetrates(w, pos, rot)
                 })
         };
-        in_band && !stances.iter().any(penetrates) && self.stances_hold(w, &stepping, &stances)
+        in_band && !stances.iter().any(penetrates) && self.stances_hold(w, &stances)
     }
 
     /// The CCD part of [`Self::step_reachable`]: every limb with a finite
-    /// tolerance reaches its target in every stance. The stepping limb at the
-    /// end stance goes first: it is the check that fails most often (the
-    /// search tries the farthest candidates first).
-    fn stances_hold(&self, w: &World<'_>, stepping: &[bool; 4], stances: &[StanceCheck]) -> bool {
+    /// tolerance reaches its target in every stance ([`reach_check`] from the
+    /// limb's pose, the four limbs of a stance at once in SIMD lanes: each lane
+    /// is exactly that scalar check). The end stance goes first: its stepping
+    /// limb is the check that fails most often (the search tries the farthest
+    /// candidates first).
+    fn stances_hold(&self, w: &World<'_>, stances: &[StanceCheck]) -> bool {
         let last = stances.len() - 1;
-        let moving = (0..4).filter(|&i| stepping[i]);
-        let others = (0..4).filter(|&i| !stepping[i]);
-        let order = moving
-            .map(|i| (last, i))
-            .chain(others.clone().map(|i| (last, i)))
-            .chain((0..last).flat_map(|k| others.clone().map(move |i| (k, i))));
-        order.into_iter().all(|(k, i)| {
+        let base = CcdParams {
+            max_iterations: CHECK_MAX_ITERATIONS,
+            ..*w.ccd
+        };
+        let params = check_params(&base);
+        std::iter::once(last).chain(0..last).all(|k| {
             let st = &stances[k];
-            let root = st.roots[i];
-            let mut pose = self.limbs[i].pose;
-            let params = CcdParams {
-                max_iterations: CHECK_MAX_ITERATIONS,
-                ..*w.ccd
-            };
-            reach_check(
-                &w.rig.chains[i],
-                root,
-                st.grips[i],
-                &mut pose,
-                st.tol[i],
+            let mut poses = self.limbs.map(|l| l.pose);
+            let r = slothsim_rig::solve4_prepared_tolerances(
+                &w.rig.chains4,
+                st.roots,
+                st.grips,
+                &mut poses,
                 &params,
-            )
-            .0
+                st.tol,
+            );
+            (0..4).all(|i| {
+                // An infinite tolerance: the stepping limb is in the air.
+                st.tol[i] == f32::INFINITY
+                    || reach_check_polish(
+                        &w.rig.chains[i],
+                        st.roots[i],
+                        st.grips[i],
+                        &mut poses[i],
+                        st.tol[i],
+                        &base,
+                        r[i].error,
+                    )
+                    .0
+            })
         })
     }
 

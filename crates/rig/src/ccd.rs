@@ -46,6 +46,9 @@ pub enum CcdOrder {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CcdParams {
     /// Success distance between effector and target (metres). Default 0.5 mm.
+    /// `f32::INFINITY`: every pose is within it (the solve leaves the pose as it
+    /// is and only measures the error; [`crate::solve4_prepared_tolerances`]
+    /// uses it for a lane that does not matter).
     pub tolerance: f32,
     /// Maximum number of sweeps over the 4 joints. Default 64.
     pub max_iterations: u32,
@@ -81,8 +84,8 @@ impl Default for CcdParams {
 /// Why parameters are invalid.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, thiserror::Error)]
 pub enum CcdParamsError {
-    /// `tolerance` must be finite and > 0.
-    #[error("tolerance must be finite and > 0")]
+    /// `tolerance` must be > 0 (finite or +∞).
+    #[error("tolerance must be > 0 (finite or infinite)")]
     Tolerance,
     /// `max_iterations` must be ≥ 1.
     #[error("max_iterations must be >= 1")]
@@ -107,7 +110,7 @@ impl CcdParams {
 
     /// Check the parameters.
     pub fn validate(&self) -> Result<(), CcdParamsError> {
-        if !(self.tolerance.is_finite() && self.tolerance > 0.0) {
+        if self.tolerance.is_nan() || self.tolerance <= 0.0 {
             return Err(CcdParamsError::Tolerance);
         }
         if self.max_iterations == 0 {

@@ -714,11 +714,12 @@ fn sweeps4(
     target: V,
     pose: &mut [Q; CHAIN_JOINTS],
     params: &CcdParams,
+    tols: F,
 ) -> (M, F, F, Handover) {
     let start = *pose;
     let none = M::new(false, false, false, false);
     let mut frames = Frames4::new(c, pose);
-    let tol_sq = splat(params.tolerance * params.tolerance);
+    let tol_sq = tols * tols;
     let mut err_sq = frames.pos[4].sub(target).length_squared();
     let start_err = sqrt(err_sq);
     let at_start = err_sq.cmple(tol_sq);
@@ -959,7 +960,8 @@ pub fn solve4(
     poses: &mut [ChainPose; 4],
     params: &CcdParams,
 ) -> [CcdResult; 4] {
-    solve4_dispatch(chains, Layout::Build, roots, targets, poses, params)
+    let tols = [params.tolerance; 4];
+    solve4_dispatch(chains, Layout::Build, roots, targets, poses, params, tols)
 }
 
 /// [`solve4`] on prepared chains (lane `i` = `chains.chains()[i]`); bit-identical to
@@ -971,10 +973,26 @@ pub fn solve4_prepared(
     poses: &mut [ChainPose; 4],
     params: &CcdParams,
 ) -> [CcdResult; 4] {
+    solve4_prepared_tolerances(chains, roots, targets, poses, params, [params.tolerance; 4])
+}
+
+/// [`solve4_prepared`] with a tolerance per lane: lane `i` is exactly
+/// `solve(chains[i], roots[i], targets[i], &mut poses[i], &CcdParams { tolerance:
+/// tolerances[i], ..*params })` (`params.tolerance` is not used). A lane whose
+/// tolerance is invalid (see [`CcdParams::validate`]) is rejected with
+/// [`CcdStatus::InvalidParams`] and left untouched; the others are solved.
+pub fn solve4_prepared_tolerances(
+    chains: &LimbChains4,
+    roots: [RootTransform; 4],
+    targets: [Vec3; 4],
+    poses: &mut [ChainPose; 4],
+    params: &CcdParams,
+    tolerances: [f32; 4],
+) -> [CcdResult; 4] {
     let c = &chains.chains;
     let refs = [&c[0], &c[1], &c[2], &c[3]];
     let layout = Layout::Prepared(chains.soa.as_ref());
-    solve4_dispatch(refs, layout, roots, targets, poses, params)
+    solve4_dispatch(refs, layout, roots, targets, poses, params, tolerances)
 }
 
 /// [`solve4_impl`], in its AVX2 build where the CPU has AVX2.
@@ -985,13 +1003,14 @@ fn solve4_dispatch(
     targets: [Vec3; 4],
     poses: &mut [ChainPose; 4],
     params: &CcdParams,
+    tols: [f32; 4],
 ) -> [CcdResult; 4] {
     #[cfg(target_arch = "x86_64")]
     if std::arch::is_x86_feature_detected!("avx2") {
         // SAFETY: the CPU has AVX2 (checked just above).
-        return unsafe { solve4_avx2(chains, layout, roots, targets, poses, params) };
+        return unsafe { solve4_avx2(chains, layout, roots, targets, poses, params, tols) };
     }
-    solve4_impl(chains, layout, roots, targets, poses, params)
+    solve4_impl(chains, layout, roots, targets, poses, params, tols)
 }
 
 /// [`solve4_impl`] compiled with AVX2 (VEX encoding; same IEEE operations).
@@ -1004,8 +1023,9 @@ fn solve4_avx2(
     targets: [Vec3; 4],
     poses: &mut [ChainPose; 4],
     params: &CcdParams,
+    tols: [f32; 4],
 ) -> [CcdResult; 4] {
-    solve4_impl(chains, layout, roots, targets, poses, params)
+    solve4_impl(chains, layout, roots, targets, poses, params, tols)
 }
 
 #[inline(always)]
@@ -1016,14 +1036,20 @@ fn solve4_impl(
     targets: [Vec3; 4],
     poses: &mut [ChainPose; 4],
     params: &CcdParams,
+    tols: [f32; 4],
 ) -> [CcdResult; 4] {
-    if params.validate().is_err() {
-        return [CcdResult::rejected(CcdStatus::InvalidParams); 4];
-    }
+    let lane_params: [CcdParams; 4] = std::array::from_fn(|i| CcdParams {
+        tolerance: tols[i],
+        ..*params
+    });
     let mut results = [CcdResult::rejected(CcdStatus::InvalidTarget); 4];
     let mut valid = [false; 4];
     let mut local = [Vec3A::ZERO; 4];
     for i in 0..4 {
+        if lane_params[i].validate().is_err() {
+            results[i] = CcdResult::rejected(CcdStatus::InvalidParams);
+            continue;
+        }
         let root = roots[i];
         valid[i] = targets[i].is_finite() && root.position.is_finite() && root.rotation.is_finite();
         if valid[i] {
@@ -1035,18 +1061,18 @@ fn solve4_impl(
     }
     if valid == [true; 4] && params.order == CcdOrder::TailFirst && params.reach_step {
         match layout {
-            Layout::Prepared(Some(c)) => return run4(chains, c, &local, poses, params),
+            Layout::Prepared(Some(c)) => return run4(chains, c, &local, poses, &lane_params),
             Layout::Prepared(None) => {}
             Layout::Build => {
                 if let Some(c) = Chains4::new(chains) {
-                    return run4(chains, &c, &local, poses, params);
+                    return run4(chains, &c, &local, poses, &lane_params);
                 }
             }
         }
     }
     for i in 0..4 {
         if valid[i] {
-            results[i] = solve_local_dispatch(chains[i], local[i], &mut poses[i], params);
+            results[i] = solve_local_dispatch(chains[i], local[i], &mut poses[i], &lane_params[i]);
         }
     }
     results
@@ -1060,8 +1086,10 @@ fn run4(
     c: &Chains4,
     local: &[Vec3A; 4],
     poses: &mut [ChainPose; 4],
-    params: &CcdParams,
+    lane_params: &[CcdParams; 4],
 ) -> [CcdResult; 4] {
+    // The lanes differ in their tolerance only.
+    let params = &lane_params[0];
     let start = *poses;
     let [p0, p1, p2, p3] = &start;
     let mut pose = [Q::IDENTITY; CHAIN_JOINTS];
@@ -1069,7 +1097,13 @@ fn run4(
         *q = Q::gather(p0.0[j], p1.0[j], p2.0[j], p3.0[j]);
     }
     let target = V::gather(local[0], local[1], local[2], local[3]);
-    let (scalar, iterations, err_sq, h) = sweeps4(c, target, &mut pose, params);
+    let tols = F::new(
+        lane_params[0].tolerance,
+        lane_params[1].tolerance,
+        lane_params[2].tolerance,
+        lane_params[3].tolerance,
+    );
+    let (scalar, iterations, err_sq, h) = sweeps4(c, target, &mut pose, params, tols);
     let error = sqrt(err_sq);
     for (j, q) in pose.iter().enumerate() {
         for (p, q) in poses.iter_mut().zip(q.scatter()) {
@@ -1079,6 +1113,7 @@ fn run4(
     let mut results = [CcdResult::rejected(CcdStatus::InvalidTarget); 4];
     for i in 0..4 {
         if scalar.test(i) {
+            let params = &lane_params[i];
             #[cfg(test)]
             tests::SCALAR_LANES.with(|n| n.set(n.get() + 1));
             let start_err = h.start_err[i];
@@ -1218,6 +1253,64 @@ mod tests {
             Vec3::new(rnd(s) * 10.0, rnd(s) * 10.0, rnd(s) * 10.0),
             Quat::from_axis_angle(axis, 6.0 * rnd(s) - 3.0),
         )
+    }
+
+    /// A tolerance per lane (the step checks' use: 1.5–3.5 mm, and +∞ for a lane
+    /// that does not matter): each lane is the scalar solve with its tolerance.
+    #[test]
+    fn per_lane_tolerances_match_scalar_bit_for_bit() {
+        let rig = Rig::sloth();
+        let chains: [&LimbChain; 4] = std::array::from_fn(|i| &rig.chains()[i]);
+        let prepared = LimbChains4::new(chains);
+        let mut s = 0x70_1e_u64;
+        let base = CcdParams {
+            refine: false,
+            max_iterations: 32,
+            ..CcdParams::default()
+        };
+        let (mut moved, mut skipped) = (0, 0);
+        for k in 0..3000 {
+            let roots: [RootTransform; 4] = std::array::from_fn(|_| root(&mut s));
+            let tols: [f32; 4] = std::array::from_fn(|_| {
+                [0.0015, 0.003, 0.0035, f32::INFINITY][(rnd(&mut s) * 4.0) as usize % 4]
+            });
+            let targets: [Vec3; 4] = std::array::from_fn(|i| {
+                let u: [f32; 12] = std::array::from_fn(|_| rnd(&mut s));
+                let p = chains[i].fk(roots[i], &chains[i].sample_pose(&u))[4];
+                let d = if k % 3 == 0 { 0.3 } else { 0.02 };
+                p + d * Vec3::new(rnd(&mut s) - 0.5, rnd(&mut s) - 0.5, rnd(&mut s) - 0.5)
+            });
+            let start: [ChainPose; 4] = std::array::from_fn(|i| {
+                let u: [f32; 12] = std::array::from_fn(|_| rnd(&mut s));
+                chains[i].sample_pose(&u)
+            });
+            let mut a = start;
+            let r4 = solve4_prepared_tolerances(&prepared, roots, targets, &mut a, &base, tols);
+            for i in 0..4 {
+                let params = CcdParams {
+                    tolerance: tols[i],
+                    ..base
+                };
+                let mut b = start[i];
+                let r = crate::solve(chains[i], roots[i], targets[i], &mut b, &params);
+                assert!(
+                    same(&r4[i], &r) && bits(&a[i]) == bits(&b),
+                    "lane {i}, tol {}",
+                    tols[i]
+                );
+                if tols[i].is_infinite() {
+                    // Nothing to do: the pose stays, the error is measured.
+                    assert!(r.reached && r.iterations == 0 && bits(&b) == bits(&start[i]));
+                    skipped += 1;
+                } else if r.iterations > 0 {
+                    moved += 1;
+                }
+            }
+        }
+        assert!(
+            moved > 1000 && skipped > 1000,
+            "{moved} solved, {skipped} skipped"
+        );
     }
 
     /// Cold solves of reachable and unreachable targets, from neutral and from random

@@ -30,7 +30,7 @@ pub mod skeleton;
 pub mod sloth;
 
 pub use ccd::{CcdOrder, CcdParams, CcdResult, CcdStatus, solve};
-pub use ccd4::{LimbChains4, solve4, solve4_prepared};
+pub use ccd4::{LimbChains4, solve4, solve4_prepared, solve4_prepared_tolerances};
 pub use chain::{CHAIN_JOINTS, ChainPose, LimbChain, RootTransform};
 pub use error::RigError;
 pub use fabrik::FabrikParams;
