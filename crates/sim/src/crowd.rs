@@ -620,6 +620,7 @@ impl Crowd {
         self.world.resource_scope(|world, loco: Mut<Locomotion>| {
             let w = loco.view();
             q.par_iter_mut(world)
+                .batching_strategy(crate::schedule::BATCHING)
                 .for_each(|(s, mut o)| o.observe(&s.0.observe(&w)));
         });
         self.observe_ms.push(t.elapsed().as_secs_f64() * 1e3);
