@@ -2245,7 +2245,11 @@ impl Sloth {
                 l.settled_ls = (r.error > params.tolerance).then_some(targets_ls[li]);
             }
             l.root = root.position.into();
-            l.effector = w.rig.chains[li].fk_effector(root, &l.pose);
+        }
+        let poses = self.limbs.map(|l| l.pose);
+        let effectors = w.rig.chains4.fk_effectors(&roots, &poses);
+        for (l, effector) in self.limbs.iter_mut().zip(effectors) {
+            l.effector = effector;
         }
         iterations
     }

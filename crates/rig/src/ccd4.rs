@@ -105,6 +105,13 @@ impl V {
         }
     }
 
+    /// Transpose back: the four lanes' vectors.
+    #[inline(always)]
+    fn scatter(self) -> [Vec3A; 4] {
+        let m = Mat4::from_cols(self.x, self.y, self.z, F::ZERO).transpose();
+        [m.x_axis, m.y_axis, m.z_axis, m.w_axis].map(Vec3A::from_vec4)
+    }
+
     #[inline(always)]
     fn add(self, o: V) -> V {
         V {
@@ -938,6 +945,29 @@ impl LimbChains4 {
     pub fn chains(&self) -> &[LimbChain; 4] {
         &self.chains
     }
+
+    /// The four effectors in world space, lane `i` exactly
+    /// `chains()[i].fk_effector(roots[i], &poses[i])` (the forward kinematics
+    /// of [`LimbChain::fk_local`] in SIMD lanes, its operations in its order).
+    pub fn fk_effectors(&self, roots: &[RootTransform; 4], poses: &[ChainPose; 4]) -> [Vec3; 4] {
+        let Some(c) = &self.soa else {
+            return std::array::from_fn(|i| self.chains[i].fk_effector(roots[i], &poses[i]));
+        };
+        let [p0, p1, p2, p3] = poses;
+        let mut parent_rot = Q::IDENTITY;
+        let mut parent_pos = V::ZERO;
+        for j in 0..CHAIN_JOINTS {
+            let pose = Q::gather(p0.0[j], p1.0[j], p2.0[j], p3.0[j]);
+            parent_pos = parent_pos.add(parent_rot.rotate(c.offsets[j]));
+            parent_rot = parent_rot.mul(c.rest[j]).mul(pose);
+        }
+        let local = parent_pos.add(parent_rot.rotate(c.effector));
+        let [r0, r1, r2, r3] = roots;
+        let rot = Q::gather(r0.rotation, r1.rotation, r2.rotation, r3.rotation);
+        let pos = V::gather(r0.position, r1.position, r2.position, r3.position);
+        // `RootTransform::transform_point`: `position + rotation * p`.
+        pos.add(rot.rotate(local)).scatter().map(Vec3::from)
+    }
 }
 
 /// Where [`solve4_impl`] gets the transposed chains.
@@ -1253,6 +1283,30 @@ mod tests {
             Vec3::new(rnd(s) * 10.0, rnd(s) * 10.0, rnd(s) * 10.0),
             Quat::from_axis_angle(axis, 6.0 * rnd(s) - 3.0),
         )
+    }
+
+    /// The SIMD forward kinematics equal the scalar one, bit for bit.
+    #[test]
+    fn fk_effectors_match_scalar_bit_for_bit() {
+        let rig = Rig::sloth();
+        let chains: [&LimbChain; 4] = std::array::from_fn(|i| &rig.chains()[i]);
+        let prepared = LimbChains4::new(chains);
+        let mut s = 0xf00d_u64;
+        for _ in 0..5000 {
+            let roots: [RootTransform; 4] = std::array::from_fn(|_| root(&mut s));
+            let poses: [ChainPose; 4] = std::array::from_fn(|i| {
+                let u: [f32; 12] = std::array::from_fn(|_| rnd(&mut s));
+                chains[i].sample_pose(&u)
+            });
+            let fk = prepared.fk_effectors(&roots, &poses);
+            for i in 0..4 {
+                let want = chains[i].fk_effector(roots[i], &poses[i]);
+                assert_eq!(
+                    fk[i].to_array().map(f32::to_bits),
+                    want.to_array().map(f32::to_bits)
+                );
+            }
+        }
     }
 
     /// A tolerance per lane (the step checks' use: 1.5–3.5 mm, and +∞ for a lane

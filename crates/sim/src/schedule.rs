@@ -83,7 +83,8 @@ fn trace_stage(
     let t = Instant::now();
     let query = loco.traces.query();
     q.par_iter_mut()
-        .batching_strategy(BATCHING).for_each(|mut tr| tr.0.run(&query));
+        .batching_strategy(BATCHING)
+        .for_each(|mut tr| tr.0.run(&query));
     timings.traces_last = q.iter().map(|t| t.0.len as u64).sum();
     timings.traces_total += timings.traces_last;
     timings.last[0] = ms(t);
@@ -113,7 +114,8 @@ fn body_average_stage(
     let w = loco.view();
     let dt = clock.dt;
     q.par_iter_mut()
-        .batching_strategy(BATCHING).for_each(|mut s| s.0.body_average(&w, dt));
+        .batching_strategy(BATCHING)
+        .for_each(|mut s| s.0.body_average(&w, dt));
     timings.last[2] = ms(t);
 }
 
@@ -127,10 +129,11 @@ fn ccd_stage(
     // An integer sum: the same for any order of the workers (deterministic).
     let iterations = AtomicU64::new(0);
     q.par_iter_mut()
-        .batching_strategy(BATCHING).for_each(|mut s| {
-        let n = s.0.solve_limbs(&w);
-        iterations.fetch_add(n as u64, Ordering::Relaxed);
-    });
+        .batching_strategy(BATCHING)
+        .for_each(|mut s| {
+            let n = s.0.solve_limbs(&w);
+            iterations.fetch_add(n as u64, Ordering::Relaxed);
+        });
     timings.last[3] = ms(t);
     timings.ccd_iterations_last = iterations.into_inner();
     timings.ccd_iterations_total += timings.ccd_iterations_last;
@@ -150,13 +153,14 @@ fn transitions_stage(
         let grid = w.crowd;
         let rig = &loco.rig;
         q.par_iter_mut()
-        .batching_strategy(BATCHING).for_each(|(_, mut s, mut tr, mut pts)| {
-            s.0.transitions(&w, dt, &mut tr.0);
-            // The neighbour grid's points, hashed here in parallel.
-            if let Some(g) = grid {
-                pts.0 = crowd_points(rig, &s.0).map(|p| g.hashed(p));
-            }
-        });
+            .batching_strategy(BATCHING)
+            .for_each(|(_, mut s, mut tr, mut pts)| {
+                s.0.transitions(&w, dt, &mut tr.0);
+                // The neighbour grid's points, hashed here in parallel.
+                if let Some(g) = grid {
+                    pts.0 = crowd_points(rig, &s.0).map(|p| g.hashed(p));
+                }
+            });
     }
     // Sloths meet sloths: the next tick reads this tick's bodies and grips.
     // The same grid as `CrowdNeighbours::rebuild` of the sloths (id order).
