@@ -1650,7 +1650,17 @@ impl Sloth {
             .iter()
             .all(|l| l.phase == LimbPhase::Planted && l.grip.support != tr.to)
         {
-            self.transfer = None;
+            // Not taken. But where limbs hold the trunk and another support
+            // (a step went onto a neighbour of the branch), the body is still
+            // between a trunk and a branch: the transfer goes on onto that
+            // one (ending it here jumped the body 0.38 m in one frame).
+            let others = self.limbs.map(|l| l.grip.support);
+            let other = others.iter().copied().find(|&s| s != tr.trunk);
+            let one_other = other.filter(|&o| others.iter().all(|&s| s == tr.trunk || s == o));
+            self.transfer = match one_other {
+                Some(to) if others.contains(&tr.trunk) => Some(Transfer { to, ..tr }),
+                _ => None,
+            };
             return;
         }
         if !self
