@@ -799,8 +799,14 @@ fn step_joint(
             let r = frames.pos[1] - joint_pos;
             let want = (target - frames.pos[1]).length();
             let (new, saturated) = reach_hinge_step(&hinge, &range, e, r, want, cap);
-            *mid_saturated = saturated;
-            new.map(|new| hinge.turn(chain, frames, j, e, new))
+            let step = new.map(|new| hinge.turn(chain, frames, j, e, new));
+            // Only a limb held short of its target at full extension has the
+            // girdle reach (joint 0) step: held at full flexion (the target too
+            // close), moving the shoulder away throws the claw off further than
+            // the next sweep's aim brings back, and plain aiming converges.
+            let effector = step.as_ref().map_or(frames.pos[4], |s| s.effector);
+            *mid_saturated = saturated && want * want > (effector - frames.pos[1]).length_squared();
+            step
         }
         Limit::Hinge { axis, range } => {
             let hinge = Hinge::new(frames, q, j, axis);

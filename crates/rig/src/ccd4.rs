@@ -769,6 +769,9 @@ fn sweeps4(
         }
         let sweep_start = *pose;
         for j in (0..CHAIN_JOINTS).rev() {
+            // The elbow/knee reach step's saturation and wanted distance, with
+            // the lanes active then (see `mid_saturated` below).
+            let mut reach_saturated = None;
             let joint_pos = frames.pos[j];
             let e = frames.pos[4].sub(joint_pos);
             let (q, eff, some) = match j {
@@ -784,7 +787,7 @@ fn sweeps4(
                         let want = sqrt(target.sub(frames.pos[1]).length_squared());
                         let (new, some, saturated) =
                             reach_hinge_step(&hinge, range, e, r, want, &cap);
-                        mid_saturated = sel_mask(lanes.active, saturated, mid_saturated);
+                        reach_saturated = Some((lanes.active, saturated, want));
                         (new, some)
                     };
                     // A warm start with an off-axis part rebuilds the joint frame: scalar.
@@ -846,6 +849,12 @@ fn sweeps4(
             let apply = lanes.active & some;
             pose[j] = Q::select(apply, q, pose[j]);
             frames.pos[4] = V::select(apply, eff, frames.pos[4]);
+            if let Some((active, saturated, want)) = reach_saturated {
+                // As the scalar step: the girdle reach only for a limb held
+                // short at full extension, not at full flexion.
+                let far = (want * want).cmpgt(frames.pos[4].sub(frames.pos[1]).length_squared());
+                mid_saturated = sel_mask(active, saturated & far, mid_saturated);
+            }
             err_sq = sel(apply, frames.pos[4].sub(target).length_squared(), err_sq);
             lanes.finish(apply & err_sq.cmple(tol_sq), iter + 1);
             if !lanes.active.any() {
