@@ -86,6 +86,9 @@ const SWING_IK_TOLERANCE: f32 = 0.0035;
 const LEG_ORDER_MARGIN: f32 = 0.05;
 /// A branch → trunk transfer: how far a fore grip may lead the hind grips along the body (m).
 const MAX_TRANSFER_SPREAD: f32 = 0.55;
+/// Onto a trunk, a fore grip at least this much higher than the hind grips
+/// (metres): the head up from the first trunk grip (SPEC: head up only).
+const TRANSFER_HEAD_RISE: f32 = 0.05;
 /// A side's fore and hind grips stay this far apart along the body (m).
 const SAME_SIDE_SPACING: f32 = 0.15;
 /// A limb never steps further ahead of the other limb of its girdle than this
@@ -2007,6 +2010,36 @@ impl Sloth {
             && limb.is_fore()
             && s.kind == SupportKind::Trunk
             && proj(approx) - hind_max > MAX_TRANSFER_SPREAD
+        {
+            return None;
+        }
+        // Onto a trunk head up only (SPEC): a fore grip at least
+        // TRANSFER_HEAD_RISE above the higher hind grip (at branch height the
+        // head hung below the hips, 1,453 sloth-frames in a 2,000-sloth run).
+        let hind_top = self.limbs[Limb::LH.index()]
+            .grip
+            .point
+            .y
+            .max(self.limbs[Limb::RH.index()].grip.point.y);
+        if transfer.is_some()
+            && limb.is_fore()
+            && s.kind == SupportKind::Trunk
+            && approx.y < hind_top + TRANSFER_HEAD_RISE
+        {
+            return None;
+        }
+        // …and the hind limbs, still on the branch, stay as far below the
+        // fore limbs on the trunk.
+        let fore_on_trunk_bottom = [Limb::LF, Limb::RF]
+            .iter()
+            .map(|f| self.limbs[f.index()].grip)
+            .filter(|g| w.scene().support(g.support).kind == SupportKind::Trunk)
+            .map(|g| g.point.y)
+            .reduce(f32::min);
+        if self.transfer.is_some_and(|t| t.to == t.trunk)
+            && !limb.is_fore()
+            && s.kind != SupportKind::Trunk
+            && fore_on_trunk_bottom.is_some_and(|y| approx.y > y - TRANSFER_HEAD_RISE)
         {
             return None;
         }
