@@ -86,9 +86,6 @@ const SWING_IK_TOLERANCE: f32 = 0.0035;
 const LEG_ORDER_MARGIN: f32 = 0.05;
 /// A branch → trunk transfer: how far a fore grip may lead the hind grips along the body (m).
 const MAX_TRANSFER_SPREAD: f32 = 0.55;
-/// Onto a trunk, a fore grip at least this much higher than the hind grips
-/// (metres): the head up from the first trunk grip (SPEC: head up only).
-const TRANSFER_HEAD_RISE: f32 = 0.05;
 /// A side's fore and hind grips stay this far apart along the body (m).
 const SAME_SIDE_SPACING: f32 = 0.15;
 /// A limb never steps further ahead of the other limb of its girdle than this
@@ -2013,23 +2010,10 @@ impl Sloth {
         {
             return None;
         }
-        // Onto a trunk head up only (SPEC): a fore grip at least
-        // TRANSFER_HEAD_RISE above the higher hind grip (at branch height the
-        // head hung below the hips, 1,453 sloth-frames in a 2,000-sloth run).
-        let hind_top = self.limbs[Limb::LH.index()]
-            .grip
-            .point
-            .y
-            .max(self.limbs[Limb::RH.index()].grip.point.y);
-        if transfer.is_some()
-            && limb.is_fore()
-            && s.kind == SupportKind::Trunk
-            && approx.y < hind_top + TRANSFER_HEAD_RISE
-        {
-            return None;
-        }
-        // …and the hind limbs, still on the branch, stay as far below the
-        // fore limbs on the trunk.
+        // Onto a trunk head up (SPEC), see also below: the hind limbs, still
+        // on the branch, stay HEAD_UP_MARGIN below the fore limbs on the
+        // trunk (stepping up a branch to a trunk grip at branch height, the
+        // hips rose above the head: 1,453 sloth-frames in a 2,000-sloth run).
         let fore_on_trunk_bottom = [Limb::LF, Limb::RF]
             .iter()
             .map(|f| self.limbs[f.index()].grip)
@@ -2039,7 +2023,7 @@ impl Sloth {
         if self.transfer.is_some_and(|t| t.to == t.trunk)
             && !limb.is_fore()
             && s.kind != SupportKind::Trunk
-            && fore_on_trunk_bottom.is_some_and(|y| approx.y > y - TRANSFER_HEAD_RISE)
+            && fore_on_trunk_bottom.is_some_and(|y| approx.y > y - HEAD_UP_MARGIN)
         {
             return None;
         }
@@ -2076,8 +2060,9 @@ impl Sloth {
         if !lead_ok {
             return None;
         }
-        // Onto a trunk head up: a fore limb takes it above the hind limbs.
-        if transfer_step && limb.is_fore() && s.kind == SupportKind::Trunk {
+        // Onto a trunk head up: a fore limb takes it above the hind limbs,
+        // and so do its next steps while the hind limbs are on the branch.
+        if transfer.is_some() && limb.is_fore() && s.kind == SupportKind::Trunk {
             let axis_up = if a.tangent.y >= 0.0 {
                 a.tangent
             } else {
