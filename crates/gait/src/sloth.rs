@@ -2010,23 +2010,6 @@ impl Sloth {
         {
             return None;
         }
-        // Onto a trunk head up (SPEC), see also below: the hind limbs, still
-        // on the branch, stay HEAD_UP_MARGIN below the fore limbs on the
-        // trunk (stepping up a branch to a trunk grip at branch height, the
-        // hips rose above the head: 1,453 sloth-frames in a 2,000-sloth run).
-        let fore_on_trunk_bottom = [Limb::LF, Limb::RF]
-            .iter()
-            .map(|f| self.limbs[f.index()].grip)
-            .filter(|g| w.scene().support(g.support).kind == SupportKind::Trunk)
-            .map(|g| g.point.y)
-            .reduce(f32::min);
-        if self.transfer.is_some_and(|t| t.to == t.trunk)
-            && !limb.is_fore()
-            && s.kind != SupportKind::Trunk
-            && fore_on_trunk_bottom.is_some_and(|y| approx.y > y - HEAD_UP_MARGIN)
-        {
-            return None;
-        }
         // A side's fore and hind grips keep apart along the body: formula 6
         // takes the body's heading from them.
         let same_side = self.limbs[limb.same_side().index()].grip.point;
@@ -2073,6 +2056,23 @@ impl Sloth {
                 .into_iter()
                 .fold(f32::NEG_INFINITY, f32::max);
             if approx.dot(axis_up) < hind_top + HEAD_UP_MARGIN {
+                return None;
+            }
+        } else if self.transfer.is_some_and(|t| t.to == t.trunk)
+            && !limb.is_fore()
+            && s.kind != SupportKind::Trunk
+        {
+            // …and the hind limbs, still on the branch, stay HEAD_UP_MARGIN
+            // below the fore limbs on the trunk (stepping up a branch to a
+            // trunk grip at branch height, the hips rose above the head:
+            // 1,453 sloth-frames in a 2,000-sloth run).
+            let fore_on_trunk_bottom = [Limb::LF, Limb::RF]
+                .map(|f| self.limbs[f.index()].grip)
+                .into_iter()
+                .filter(|g| w.scene().support(g.support).kind == SupportKind::Trunk)
+                .map(|g| g.point.y)
+                .reduce(f32::min);
+            if fore_on_trunk_bottom.is_some_and(|y| approx.y > y - HEAD_UP_MARGIN) {
                 return None;
             }
         }
