@@ -1776,7 +1776,14 @@ impl Sloth {
         let cur = self.limbs[li].grip;
         let root = self.limbs[li].root;
         let entry = project(s2, (cur.point + root) * 0.5);
-        if entry.point.distance(root) - entry.radius > w.rig.reach {
+        // transfer_to_branch's hind pair is judged by its reach check at the
+        // stance after the step (with the hindquarters' offset back): before
+        // the pair moves, the hips low on the trunk are seldom within reach
+        // of a branch that falls away from the junction (trunk_branch at
+        // 110°–130° stopped there).
+        if self.hind_pair(li, sid).is_none()
+            && entry.point.distance(root) - entry.radius > w.rig.reach
+        {
             return None;
         }
         let sdir = self.choose_sdir(w, sid, entry.tangent);
