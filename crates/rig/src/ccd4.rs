@@ -1034,7 +1034,8 @@ pub fn solve4_prepared_tolerances(
     solve4_dispatch(refs, layout, roots, targets, poses, params, tolerances)
 }
 
-/// [`solve4_impl`], in its AVX2 build where the CPU has AVX2.
+/// [`solve4_impl`], in its AVX-512 build where the CPU has AVX-512F/VL, else in
+/// its AVX2 build where the CPU has AVX2.
 fn solve4_dispatch(
     chains: [&LimbChain; 4],
     layout: Layout<'_>,
@@ -1044,6 +1045,13 @@ fn solve4_dispatch(
     params: &CcdParams,
     tols: [f32; 4],
 ) -> [CcdResult; 4] {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx512f")
+        && std::arch::is_x86_feature_detected!("avx512vl")
+    {
+        // SAFETY: the CPU has AVX-512F and AVX-512VL (checked just above).
+        return unsafe { solve4_avx512(chains, layout, roots, targets, poses, params, tols) };
+    }
     #[cfg(target_arch = "x86_64")]
     if std::arch::is_x86_feature_detected!("avx2") {
         // SAFETY: the CPU has AVX2 (checked just above).
@@ -1056,6 +1064,24 @@ fn solve4_dispatch(
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
 fn solve4_avx2(
+    chains: [&LimbChain; 4],
+    layout: Layout<'_>,
+    roots: [RootTransform; 4],
+    targets: [Vec3; 4],
+    poses: &mut [ChainPose; 4],
+    params: &CcdParams,
+    tols: [f32; 4],
+) -> [CcdResult; 4] {
+    solve4_impl(chains, layout, roots, targets, poses, params, tols)
+}
+
+/// [`solve4_impl`] compiled with AVX-512F/VL: the same 128-bit operations, but the
+/// EVEX encoding has 32 vector registers instead of 16, and the sweeps' working set
+/// (four lanes of joint frames, the pose, masks) no longer spills to the stack. Rust
+/// never fuses a multiply and an add, so this build too gives the same bits.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx512vl")]
+fn solve4_avx512(
     chains: [&LimbChain; 4],
     layout: Layout<'_>,
     roots: [RootTransform; 4],
