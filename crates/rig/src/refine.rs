@@ -102,18 +102,53 @@ impl Coords {
     }
 
     fn quat_of(&self, x: [f32; 3]) -> Quat {
+        self.compose(self.factors(x))
+    }
+
+    /// The rotation of its [`Coords::factors`].
+    fn compose(&self, (a, b): (Quat, Quat)) -> Quat {
         match *self {
-            Coords::Hinge { axis, .. } => axis_angle(axis, x[0]),
-            Coords::Ball { axis, b1, b2, .. } => {
+            Coords::Hinge { .. } => a,
+            Coords::Ball { .. } => a * b,
+        }
+    }
+
+    /// The factors of [`Coords::quat_of`]: a ball joint's swing (of `x[0]`,
+    /// `x[1]`) and twist (of `x[2]`), whose product it is; a hinge's rotation
+    /// (and the identity, unused).
+    fn factors(&self, x: [f32; 3]) -> (Quat, Quat) {
+        match *self {
+            Coords::Hinge { axis, .. } => (axis_angle(axis, x[0]), Quat::IDENTITY),
+            Coords::Ball { axis, .. } => (self.swing_of(x), axis_angle(axis, x[2])),
+        }
+    }
+
+    /// A ball joint's swing factor (of `x[0]`, `x[1]`; a hinge: unused).
+    fn swing_of(&self, x: [f32; 3]) -> Quat {
+        match *self {
+            Coords::Hinge { .. } => Quat::IDENTITY,
+            Coords::Ball { b1, b2, .. } => {
                 let s = b1 * x[0] + b2 * x[1];
                 let a = s.length();
-                let swing = if a > 1e-12 {
+                if a > 1e-12 {
                     axis_angle(s / a, a)
                 } else {
                     Quat::IDENTITY
-                };
-                swing * axis_angle(axis, x[2])
+                }
             }
+        }
+    }
+
+    /// [`Coords::quat_of`] of `x` moved by `h` in coordinate `k` from `base`, whose
+    /// factors are `parts` ([`Coords::factors`]): the same quaternion, but a ball
+    /// joint recomputes only the factor that coordinate changes.
+    fn quat_of_moved(&self, base: [f32; 3], parts: (Quat, Quat), k: usize, h: f32) -> Quat {
+        let mut x = base;
+        x[k] += h;
+        match *self {
+            Coords::Hinge { .. } => self.quat_of(x),
+            Coords::Ball { axis, .. } if k == 2 => parts.0 * axis_angle(axis, x[2]),
+            Coords::Ball { .. } => self.swing_of(x) * parts.1,
         }
     }
 
@@ -141,8 +176,34 @@ fn axis_angle(axis: Vec3A, angle: f32) -> Quat {
     Quat::from_axis_angle(Vec3::from(axis), angle)
 }
 
-fn effector(chain: &LimbChain, q: &[Quat; CHAIN_JOINTS]) -> Vec3A {
-    chain.fk_local(&ChainPose(*q)).0[4]
+/// Forward kinematics of `q` (joint positions, effector last, and rotations).
+type Fk = ([Vec3A; 5], [Quat; CHAIN_JOINTS]);
+
+fn fk(chain: &LimbChain, q: &[Quat; CHAIN_JOINTS]) -> Fk {
+    chain.fk_local(&ChainPose(*q))
+}
+
+/// The effector of `q` with joint `j` turned to `qj` instead, from `fk` (the forward
+/// kinematics of `q`): the joints above `j` are where `fk` has them, so only the chain
+/// from `j` on is recomputed, with [`LimbChain::fk_local`]'s operations in its order
+/// (the same bits as the full forward kinematics).
+fn effector_moved(
+    chain: &LimbChain,
+    fk: &Fk,
+    q: &[Quat; CHAIN_JOINTS],
+    j: usize,
+    qj: Quat,
+) -> Vec3A {
+    let (pos, rot) = fk;
+    let parent = if j == 0 { Quat::IDENTITY } else { rot[j - 1] };
+    let mut parent_rot = parent * chain.rest[j] * qj;
+    let mut parent_pos = pos[j];
+    for i in j + 1..CHAIN_JOINTS {
+        let p = parent_pos + parent_rot * chain.offsets[i];
+        parent_rot = parent_rot * chain.rest[i] * q[i];
+        parent_pos = p;
+    }
+    parent_pos + parent_rot * chain.effector
 }
 
 /// Outcome of [`refine`].
@@ -201,9 +262,11 @@ fn refine_impl(
         coords[j].project(&mut x);
         x
     });
-    let mut q: [Quat; CHAIN_JOINTS] = std::array::from_fn(|j| coords[j].quat_of(x[j]));
+    let mut parts: [(Quat, Quat); CHAIN_JOINTS] = std::array::from_fn(|j| coords[j].factors(x[j]));
+    let mut q: [Quat; CHAIN_JOINTS] = std::array::from_fn(|j| coords[j].compose(parts[j]));
     let start_err = chain.fk_local(pose).0[4].distance(target);
-    let mut eff = effector(chain, &q);
+    let mut fk_q = fk(chain, &q);
+    let mut eff = fk_q.0[4];
     let mut err = eff.distance(target);
     let mut lambda2 = 1e-4f32;
     let mut iterations = 0;
@@ -214,11 +277,8 @@ fn refine_impl(
         let mut cols = [Vec3A::ZERO; 3 * CHAIN_JOINTS];
         for j in 0..CHAIN_JOINTS {
             for k in 0..coords[j].dof() {
-                let mut xj = x[j];
-                xj[k] += H;
-                let mut qq = q;
-                qq[j] = coords[j].quat_of(xj);
-                cols[3 * j + k] = (effector(chain, &qq) - eff) * (1.0 / H);
+                let qj = coords[j].quat_of_moved(x[j], parts[j], k, H);
+                cols[3 * j + k] = (effector_moved(chain, &fk_q, &q, j, qj) - eff) * (1.0 / H);
             }
             // Active set: coordinates at a bound whose descent direction points out.
             match coords[j] {
@@ -261,11 +321,15 @@ fn refine_impl(
                 }
                 coords[j].project(&mut x1[j]);
             }
-            let q1: [Quat; CHAIN_JOINTS] = std::array::from_fn(|j| coords[j].quat_of(x1[j]));
-            let eff1 = effector(chain, &q1);
+            let parts1: [(Quat, Quat); CHAIN_JOINTS] =
+                std::array::from_fn(|j| coords[j].factors(x1[j]));
+            let q1: [Quat; CHAIN_JOINTS] = std::array::from_fn(|j| coords[j].compose(parts1[j]));
+            let fk1 = fk(chain, &q1);
+            let eff1 = fk1.0[4];
             let err1 = eff1.distance(target);
             if err1 < err - 1e-7 {
                 (x, q, eff, err) = (x1, q1, eff1, err1);
+                (parts, fk_q) = (parts1, fk1);
                 lambda2 = (lambda2 * 0.25).max(1e-6);
                 improved = true;
                 break;
@@ -304,6 +368,53 @@ fn freeze_at_bound(col: &mut Vec3A, x: f32, min: f32, max: f32, e: Vec3A) {
 mod tests {
     use super::*;
     use crate::Rig;
+
+    /// The Jacobian's shortcuts give exactly the straightforward values: a joint's
+    /// moved rotation from the factor its coordinate changes, and the effector from
+    /// the moved joint on (the forward kinematics of the joints above it kept).
+    #[test]
+    fn jacobian_shortcuts_are_bit_identical() {
+        let rig = Rig::sloth();
+        let mut s = 0x1ac0_u64;
+        let mut rnd = || {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            (s >> 40) as f32 / (1u64 << 24) as f32
+        };
+        for chain in rig.chains() {
+            let coords: [Coords; CHAIN_JOINTS] =
+                std::array::from_fn(|j| Coords::new(&chain.limits[j]));
+            for _ in 0..2000 {
+                let u: [f32; 12] = std::array::from_fn(|_| rnd());
+                let pose = chain.sample_pose(&u);
+                let x: [[f32; 3]; CHAIN_JOINTS] =
+                    std::array::from_fn(|j| coords[j].coords_of(pose.0[j]));
+                let q: [Quat; CHAIN_JOINTS] = std::array::from_fn(|j| coords[j].quat_of(x[j]));
+                let fk_q = fk(chain, &q);
+                for j in 0..CHAIN_JOINTS {
+                    let parts = coords[j].factors(x[j]);
+                    for k in 0..coords[j].dof() {
+                        let mut xj = x[j];
+                        xj[k] += H;
+                        let mut qq = q;
+                        qq[j] = coords[j].quat_of(xj);
+                        let qj = coords[j].quat_of_moved(x[j], parts, k, H);
+                        assert_eq!(
+                            qj.to_array().map(f32::to_bits),
+                            qq[j].to_array().map(f32::to_bits)
+                        );
+                        let want = fk(chain, &qq).0[4];
+                        let got = effector_moved(chain, &fk_q, &q, j, qj);
+                        assert_eq!(
+                            got.to_array().map(f32::to_bits),
+                            want.to_array().map(f32::to_bits)
+                        );
+                    }
+                }
+            }
+        }
+    }
 
     /// The AVX2 build of the polish gives the baseline build's result bit for bit,
     /// from random poses toward targets near, at and beyond the limits and the reach.
