@@ -1478,6 +1478,65 @@ mod tests {
         println!("warm: {scalar} of {solves} lanes went to the scalar solver: {reasons:?}");
     }
 
+    /// Every build of the vector solver this CPU runs (plain SSE2, AVX2, AVX-512)
+    /// gives the same bits, lane by lane, as the plain build.
+    #[test]
+    fn simd_builds_match_bit_for_bit() {
+        let rig = Rig::sloth();
+        let chains: [&LimbChain; 4] = std::array::from_fn(|i| &rig.chains()[i]);
+        let prepared = LimbChains4::new(chains);
+        let layout = Layout::Prepared(prepared.soa.as_ref());
+        let mut s = 0xb11d_u64;
+        let mut builds = 1;
+        for params in [CcdParams::default(), CcdParams::precise()] {
+            for k in 0..2000 {
+                let roots: [RootTransform; 4] = std::array::from_fn(|_| root(&mut s));
+                let targets: [Vec3; 4] = std::array::from_fn(|i| {
+                    let u: [f32; 12] = std::array::from_fn(|_| rnd(&mut s));
+                    let p = chains[i].fk(roots[i], &chains[i].sample_pose(&u))[4];
+                    let d = [0.0, 0.005, 0.03, 0.5][k % 4];
+                    p + d * Vec3::new(rnd(&mut s) - 0.5, rnd(&mut s) - 0.5, rnd(&mut s) - 0.5)
+                });
+                let start: [ChainPose; 4] = std::array::from_fn(|i| {
+                    let u: [f32; 12] = std::array::from_fn(|_| rnd(&mut s));
+                    chains[i].sample_pose(&u)
+                });
+                let tols = [params.tolerance; 4];
+                let mut want = start;
+                let r = solve4_impl(chains, layout, roots, targets, &mut want, &params, tols);
+                let mut got: Vec<([CcdResult; 4], [ChainPose; 4])> = Vec::new();
+                #[cfg(target_arch = "x86_64")]
+                {
+                    if std::arch::is_x86_feature_detected!("avx2") {
+                        let mut p = start;
+                        // SAFETY: the CPU has AVX2.
+                        let r = unsafe {
+                            solve4_avx2(chains, layout, roots, targets, &mut p, &params, tols)
+                        };
+                        got.push((r, p));
+                    }
+                    if std::arch::is_x86_feature_detected!("avx512f")
+                        && std::arch::is_x86_feature_detected!("avx512vl")
+                    {
+                        let mut p = start;
+                        // SAFETY: the CPU has AVX-512F and AVX-512VL.
+                        let r = unsafe {
+                            solve4_avx512(chains, layout, roots, targets, &mut p, &params, tols)
+                        };
+                        got.push((r, p));
+                    }
+                }
+                builds = 1 + got.len();
+                for (rb, pb) in &got {
+                    for i in 0..4 {
+                        assert!(same(&r[i], &rb[i]) && bits(&want[i]) == bits(&pb[i]));
+                    }
+                }
+            }
+        }
+        println!("{builds} builds compared");
+    }
+
     /// Far and huge (but finite) targets: squares overflow to infinity and NaNs appear
     /// inside the steps; the lanes must still follow the scalar solver exactly.
     #[test]
