@@ -939,14 +939,26 @@ pub struct LimbChains4 {
     chains: [LimbChain; 4],
     /// `None` when the chains do not have the layout the vector path handles.
     soa: Option<Chains4>,
+    /// The forward kinematics' first joint before its pose: its position
+    /// (`0 + 1 · offset₀`) and `1 · rest₀`, the operations [`LimbChain::fk_local`]
+    /// starts with (constants of the chains: computed once, the same bits).
+    fk_first: Option<(V, Q)>,
 }
 
 impl LimbChains4 {
     /// Prepare four chains (lane `i` = `chains[i]`).
     pub fn new(chains: [&LimbChain; 4]) -> Self {
+        let soa = Chains4::new(chains);
+        let fk_first = soa.as_ref().map(|c| {
+            (
+                V::ZERO.add(Q::IDENTITY.rotate(c.offsets[0])),
+                Q::IDENTITY.mul(c.rest[0]),
+            )
+        });
         Self {
             chains: chains.map(|c| *c),
-            soa: Chains4::new(chains),
+            soa,
+            fk_first,
         }
     }
 
@@ -959,16 +971,16 @@ impl LimbChains4 {
     /// `chains()[i].fk_effector(roots[i], &poses[i])` (the forward kinematics
     /// of [`LimbChain::fk_local`] in SIMD lanes, its operations in its order).
     pub fn fk_effectors(&self, roots: &[RootTransform; 4], poses: &[ChainPose; 4]) -> [Vec3; 4] {
-        let Some(c) = &self.soa else {
+        let (Some(c), Some((first_pos, first_rest))) = (&self.soa, self.fk_first) else {
             return std::array::from_fn(|i| self.chains[i].fk_effector(roots[i], &poses[i]));
         };
         let [p0, p1, p2, p3] = poses;
-        let mut parent_rot = Q::IDENTITY;
-        let mut parent_pos = V::ZERO;
-        for j in 0..CHAIN_JOINTS {
-            let pose = Q::gather(p0.0[j], p1.0[j], p2.0[j], p3.0[j]);
+        let pose = |j: usize| Q::gather(p0.0[j], p1.0[j], p2.0[j], p3.0[j]);
+        let mut parent_pos = first_pos;
+        let mut parent_rot = first_rest.mul(pose(0));
+        for j in 1..CHAIN_JOINTS {
             parent_pos = parent_pos.add(parent_rot.rotate(c.offsets[j]));
-            parent_rot = parent_rot.mul(c.rest[j]).mul(pose);
+            parent_rot = parent_rot.mul(c.rest[j]).mul(pose(j));
         }
         let local = parent_pos.add(parent_rot.rotate(c.effector));
         let [r0, r1, r2, r3] = roots;
