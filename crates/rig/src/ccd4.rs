@@ -1058,9 +1058,7 @@ fn solve4_dispatch(
     tols: [f32; 4],
 ) -> [CcdResult; 4] {
     #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx512f")
-        && std::arch::is_x86_feature_detected!("avx512vl")
-    {
+    if crate::ccd::has_avx512() {
         // SAFETY: the CPU has AVX-512F and AVX-512VL (checked just above).
         return unsafe { solve4_avx512(chains, layout, roots, targets, poses, params, tols) };
     }
