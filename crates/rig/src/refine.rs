@@ -198,6 +198,9 @@ fn effector_moved(
     let parent = if j == 0 { Quat::IDENTITY } else { rot[j - 1] };
     let mut parent_rot = parent * chain.rest[j] * qj;
     let mut parent_pos = pos[j];
+    // Indexed: three arrays in step (an iterator chain of `zip`s and `skip`
+    // compiled to 9 % more instructions in the polish).
+    #[allow(clippy::needless_range_loop)]
     for i in j + 1..CHAIN_JOINTS {
         let p = parent_pos + parent_rot * chain.offsets[i];
         parent_rot = parent_rot * chain.rest[i] * q[i];
