@@ -257,17 +257,8 @@ pub fn solve(
     solve_local_dispatch(chain, target, pose, params)
 }
 
-/// Whether the CPU has AVX-512F and AVX-512VL: the solvers' kernels then run in
-/// their EVEX builds (see [`solve_local_avx512`]).
-#[cfg(target_arch = "x86_64")]
-#[inline(always)]
-pub(crate) fn has_avx512() -> bool {
-    std::arch::is_x86_feature_detected!("avx512f")
-        && std::arch::is_x86_feature_detected!("avx512vl")
-}
-
-/// [`solve_local`], the AVX-512 or else the AVX2 build where the CPU has it (params
-/// already validated, target in the chain-root frame, pose finite).
+/// [`solve_local`], the AVX2 build where the CPU has it (params already validated,
+/// target in the chain-root frame, pose finite).
 #[inline(always)]
 pub(crate) fn solve_local_dispatch(
     chain: &LimbChain,
@@ -275,11 +266,6 @@ pub(crate) fn solve_local_dispatch(
     pose: &mut ChainPose,
     params: &CcdParams,
 ) -> CcdResult {
-    #[cfg(target_arch = "x86_64")]
-    if has_avx512() {
-        // SAFETY: the CPU has AVX-512F and AVX-512VL (checked just above).
-        return unsafe { solve_local_avx512(chain, target, pose, params) };
-    }
     #[cfg(target_arch = "x86_64")]
     if std::arch::is_x86_feature_detected!("avx2") {
         // SAFETY: the CPU has AVX2 (checked just above).
@@ -297,20 +283,6 @@ pub(crate) fn solve_local_dispatch(
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
 fn solve_local_avx2(
-    chain: &LimbChain,
-    target: Vec3A,
-    pose: &mut ChainPose,
-    params: &CcdParams,
-) -> CcdResult {
-    solve_local(chain, target, pose, params)
-}
-
-/// [`solve_local`] compiled with AVX-512F/VL: the EVEX encoding's 32 vector registers
-/// leave fewer spills than AVX2's 16; the same IEEE operations in the same order (see
-/// [`solve_local_avx2`]), so the same bits.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f,avx512vl")]
-fn solve_local_avx512(
     chain: &LimbChain,
     target: Vec3A,
     pose: &mut ChainPose,
@@ -376,7 +348,7 @@ pub(crate) struct SweepFrom {
 
 /// [`solve_local`] continued from `from` (the same sweeps, polish and smoothness
 /// guard as an uninterrupted solve from `start`, whose error was `start_err`).
-/// [`resume_local_avx512`] or [`resume_local_avx2`] where the CPU has it.
+/// [`resume_local_avx2`] where the CPU has AVX2.
 #[inline(always)]
 pub(crate) fn resume_local_dispatch(
     chain: &LimbChain,
@@ -387,11 +359,6 @@ pub(crate) fn resume_local_dispatch(
     params: &CcdParams,
     from: SweepFrom,
 ) -> CcdResult {
-    #[cfg(target_arch = "x86_64")]
-    if has_avx512() {
-        // SAFETY: the CPU has AVX-512F and AVX-512VL (checked just above).
-        return unsafe { resume_local_avx512(chain, target, start, start_err, pose, params, from) };
-    }
     #[cfg(target_arch = "x86_64")]
     if std::arch::is_x86_feature_detected!("avx2") {
         // SAFETY: the CPU has AVX2 (checked just above).
@@ -404,21 +371,6 @@ pub(crate) fn resume_local_dispatch(
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
 fn resume_local_avx2(
-    chain: &LimbChain,
-    target: Vec3A,
-    start: &ChainPose,
-    start_err: f32,
-    pose: &mut ChainPose,
-    params: &CcdParams,
-    from: SweepFrom,
-) -> CcdResult {
-    resume_local(chain, target, start, start_err, pose, params, from)
-}
-
-/// [`resume_local`] compiled with AVX-512F/VL (see [`solve_local_avx512`]).
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f,avx512vl")]
-fn resume_local_avx512(
     chain: &LimbChain,
     target: Vec3A,
     start: &ChainPose,
@@ -1120,8 +1072,8 @@ mod tests {
     use super::*;
     use crate::Rig;
 
-    /// `solve` (the AVX-512 or AVX2 build where the CPU has it), each of those builds
-    /// and the plain build of the same code give bit-identical results, cold and warm.
+    /// `solve` (the AVX2 build where the CPU has it) and the plain build of the same
+    /// code give bit-identical results, cold and warm.
     #[test]
     fn runtime_dispatch_is_bit_identical() {
         let rig = Rig::sloth();
@@ -1135,26 +1087,10 @@ mod tests {
                 let root = RootTransform::IDENTITY;
                 let (mut cold_a, mut cold_b) = (ChainPose::NEUTRAL, ChainPose::NEUTRAL);
                 for (a, b) in [(&mut warm_a, &mut warm_b), (&mut cold_a, &mut cold_b)] {
-                    let start = *a;
                     let ra = solve(chain, root, target.into(), a, &params);
                     let rb = solve_local(chain, target, b, &params);
                     assert_eq!(ra, rb);
                     assert_eq!(a, b);
-                    // Every build this CPU runs (the dispatch picks the widest).
-                    #[cfg(target_arch = "x86_64")]
-                    if std::arch::is_x86_feature_detected!("avx2") {
-                        let mut c = start;
-                        // SAFETY: the CPU has AVX2.
-                        let rc = unsafe { solve_local_avx2(chain, target, &mut c, &params) };
-                        assert_eq!((rc, c), (rb, *b));
-                    }
-                    #[cfg(target_arch = "x86_64")]
-                    if has_avx512() {
-                        let mut c = start;
-                        // SAFETY: the CPU has AVX-512F and AVX-512VL.
-                        let rc = unsafe { solve_local_avx512(chain, target, &mut c, &params) };
-                        assert_eq!((rc, c), (rb, *b));
-                    }
                 }
             }
         }

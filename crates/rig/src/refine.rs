@@ -219,7 +219,7 @@ pub(crate) struct Refined {
 
 /// Polish `pose` toward `target` (chain-root frame) within the limits, up to
 /// `max_iterations` Jacobians or until within `tolerance`. The pose is replaced only if
-/// the error went down. Runs [`refine_avx512`] or [`refine_avx2`] where the CPU has it.
+/// the error went down. Runs [`refine_avx2`] where the CPU has AVX2.
 pub(crate) fn refine(
     chain: &LimbChain,
     target: Vec3A,
@@ -227,11 +227,6 @@ pub(crate) fn refine(
     tolerance: f32,
     max_iterations: u32,
 ) -> Refined {
-    #[cfg(target_arch = "x86_64")]
-    if crate::ccd::has_avx512() {
-        // SAFETY: the CPU has AVX-512F and AVX-512VL (checked just above).
-        return unsafe { refine_avx512(chain, target, pose, tolerance, max_iterations) };
-    }
     #[cfg(target_arch = "x86_64")]
     if std::arch::is_x86_feature_detected!("avx2") {
         // SAFETY: the CPU has AVX2 (checked just above).
@@ -246,20 +241,6 @@ pub(crate) fn refine(
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
 fn refine_avx2(
-    chain: &LimbChain,
-    target: Vec3A,
-    pose: &mut ChainPose,
-    tolerance: f32,
-    max_iterations: u32,
-) -> Refined {
-    refine_impl(chain, target, pose, tolerance, max_iterations)
-}
-
-/// [`refine_impl`] compiled with AVX-512F/VL (32 vector registers; the same
-/// operations, the same bits: see `crate::ccd`'s `solve_local_avx512`).
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f,avx512vl")]
-fn refine_avx512(
     chain: &LimbChain,
     target: Vec3A,
     pose: &mut ChainPose,
@@ -438,7 +419,7 @@ mod tests {
         }
     }
 
-    /// The AVX-512 and AVX2 builds of the polish give the baseline build's result bit for bit,
+    /// The AVX2 build of the polish gives the baseline build's result bit for bit,
     /// from random poses toward targets near, at and beyond the limits and the reach.
     #[test]
     fn avx2_dispatch_is_bit_identical() {
@@ -462,29 +443,6 @@ mod tests {
                 let (mut a, mut b) = (start, start);
                 let ra = refine(chain, target, &mut a, 5e-4, 64);
                 let rb = refine_impl(chain, target, &mut b, 5e-4, 64);
-                // Every build this CPU runs (`refine` picks the widest).
-                #[cfg(target_arch = "x86_64")]
-                if std::arch::is_x86_feature_detected!("avx2") {
-                    let mut c = start;
-                    // SAFETY: the CPU has AVX2.
-                    let rc = unsafe { refine_avx2(chain, target, &mut c, 5e-4, 64) };
-                    assert_eq!(
-                        (rc.error.to_bits(), rc.iterations),
-                        (rb.error.to_bits(), rb.iterations)
-                    );
-                    assert_eq!(c, b);
-                }
-                #[cfg(target_arch = "x86_64")]
-                if crate::ccd::has_avx512() {
-                    let mut c = start;
-                    // SAFETY: the CPU has AVX-512F and AVX-512VL.
-                    let rc = unsafe { refine_avx512(chain, target, &mut c, 5e-4, 64) };
-                    assert_eq!(
-                        (rc.error.to_bits(), rc.iterations),
-                        (rb.error.to_bits(), rb.iterations)
-                    );
-                    assert_eq!(c, b);
-                }
                 assert_eq!(ra.error.to_bits(), rb.error.to_bits());
                 assert_eq!(ra.iterations, rb.iterations);
                 for j in 0..CHAIN_JOINTS {
