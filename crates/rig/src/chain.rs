@@ -238,13 +238,7 @@ mod tests {
     #[test]
     fn fk_effector_is_fk_index_4_bit_for_bit() {
         let rig = Rig::sloth();
-        let mut s = 0x1234_5678_u64;
-        let mut rnd = || {
-            s ^= s << 13;
-            s ^= s >> 7;
-            s ^= s << 17;
-            (s >> 40) as f32 / (1u64 << 24) as f32
-        };
+        let mut rnd = crate::test_rng::uniform(0x1234_5678_u64);
         for chain in rig.chains() {
             for _ in 0..500 {
                 let u: [f32; 12] = std::array::from_fn(|_| rnd());

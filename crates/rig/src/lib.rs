@@ -28,6 +28,8 @@ mod refine;
 pub mod rig;
 pub mod skeleton;
 pub mod sloth;
+#[cfg(test)]
+mod test_rng;
 
 pub use ccd::{CcdOrder, CcdParams, CcdResult, CcdStatus, solve};
 pub use ccd4::{LimbChains4, solve4, solve4_prepared, solve4_prepared_tolerances};

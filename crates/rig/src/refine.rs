@@ -378,13 +378,7 @@ mod tests {
     #[test]
     fn jacobian_shortcuts_are_bit_identical() {
         let rig = Rig::sloth();
-        let mut s = 0x1ac0_u64;
-        let mut rnd = || {
-            s ^= s << 13;
-            s ^= s >> 7;
-            s ^= s << 17;
-            (s >> 40) as f32 / (1u64 << 24) as f32
-        };
+        let mut rnd = crate::test_rng::uniform(0x1ac0_u64);
         for chain in rig.chains() {
             let coords: [Coords; CHAIN_JOINTS] =
                 std::array::from_fn(|j| Coords::new(&chain.limits[j]));
@@ -424,13 +418,7 @@ mod tests {
     #[test]
     fn avx2_dispatch_is_bit_identical() {
         let rig = Rig::sloth();
-        let mut s = 0x5eed_u64;
-        let mut rnd = || {
-            s ^= s << 13;
-            s ^= s >> 7;
-            s ^= s << 17;
-            (s >> 40) as f32 / (1u64 << 24) as f32
-        };
+        let mut rnd = crate::test_rng::uniform(0x5eed_u64);
         for chain in rig.chains() {
             for k in 0..400 {
                 let u: [f32; 12] = std::array::from_fn(|_| rnd());
