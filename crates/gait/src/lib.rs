@@ -18,7 +18,9 @@ pub use config::{ConfigError, LocomotionConfig, Profile, Sequence};
 pub use crowd::{CrowdGrid, HashedPoint};
 pub use path::{Adjacency, AxisPoint, axis_at, project};
 pub use rigdata::RigData;
-pub use sloth::{Grip, LimbPhase, LimbState, Sloth, SpawnHint, Status, TraceBatch, World};
+pub use sloth::{
+    Grip, LimbPhase, LimbState, Sloth, SolveMemo, SpawnHint, Status, TraceBatch, World,
+};
 pub mod judge;
 pub mod stats;
 pub use judge::{Judge, JudgeReport, JudgeWorst, MeasureAt, ToleranceError, Tolerances, Verdict};

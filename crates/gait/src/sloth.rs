@@ -331,6 +331,21 @@ pub struct Sloth {
     pub resume_at: Option<f32>,
 }
 
+/// Words of a [`SolveKey`]: the body (position, rotation), then per limb its
+/// target, pose, settled target (with a flag), phase, root and effector.
+const SOLVE_KEY_LEN: usize = 7 + 4 * (3 + 16 + 4 + 1 + 3 + 3);
+
+/// The bits of the fields [`Sloth::solve_limbs`] reads or writes.
+type SolveKey = [u32; SOLVE_KEY_LEN];
+
+/// What [`Sloth::solve_limbs_memo`] keeps of the sloth's last CcdSolve.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct SolveMemo {
+    /// The state a solve left unchanged and its sweep count; `None` after a
+    /// solve that changed something.
+    fixed: Option<(SolveKey, u32)>,
+}
+
 /// Serde for [`ChainPose`] (four quaternions, bit-exact through serde's f32).
 mod pose_serde {
     use glam::Quat;
@@ -2196,6 +2211,56 @@ impl Sloth {
             }
         }
         iterations
+    }
+
+    /// [`Sloth::solve_limbs`], skipped where it would change nothing. The solve
+    /// is a deterministic function of the fields it reads (body, targets, limb
+    /// phases, poses, settled targets) and of `w`; when all of those and the
+    /// fields it writes (poses, settled targets, roots, effectors, body) hold
+    /// exactly the bits that a call through `memo` left unchanged, this call
+    /// would leave them unchanged again: it returns that call's sweep count.
+    /// A resting sloth's solves are such (about a third of the sloth-frames of
+    /// a 10,000-sloth crowd). `memo` belongs to this sloth and to `w` (start it
+    /// with [`SolveMemo::default`]).
+    pub fn solve_limbs_memo(&mut self, w: &World<'_>, memo: &mut SolveMemo) -> u32 {
+        let key = self.solve_key();
+        if let Some((fixed, iterations)) = &memo.fixed
+            && *fixed == key
+        {
+            return *iterations;
+        }
+        let iterations = self.solve_limbs(w);
+        memo.fixed = (self.solve_key() == key).then_some((key, iterations));
+        iterations
+    }
+
+    /// The bits of every field [`Sloth::solve_limbs`] reads or writes.
+    fn solve_key(&self) -> SolveKey {
+        let mut k = [0u32; SOLVE_KEY_LEN];
+        let mut at = 0;
+        let mut put = |v: &[f32]| {
+            for (d, x) in k[at..at + v.len()].iter_mut().zip(v) {
+                *d = x.to_bits();
+            }
+            at += v.len();
+        };
+        put(&self.body_pos.to_array());
+        put(&self.body_rot.to_array());
+        for l in &self.limbs {
+            put(&l.target.to_array());
+            for q in l.pose.0 {
+                put(&q.to_array());
+            }
+            match l.settled_ls {
+                Some(t) => put(&[1.0, t.x, t.y, t.z]),
+                None => put(&[0.0; 4]),
+            }
+            put(&[l.phase as u32 as f32]);
+            put(&l.root.to_array());
+            put(&l.effector.to_array());
+        }
+        debug_assert_eq!(at, SOLVE_KEY_LEN);
+        k
     }
 
     /// The mean of the planted limbs' claw → target vectors over those off

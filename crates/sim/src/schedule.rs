@@ -16,7 +16,8 @@ use bevy_ecs::schedule::SingleThreadedExecutor;
 use bevy_tasks::{ComputeTaskPool, TaskPoolBuilder};
 
 use crate::world::{
-    CrowdNeighbours, CrowdPoints, Locomotion, SimClock, SlothId, SlothState, Traces, crowd_points,
+    CcdMemo, CrowdNeighbours, CrowdPoints, Locomotion, SimClock, SlothId, SlothState, Traces,
+    crowd_points,
 };
 
 /// The stages of one tick, in order.
@@ -121,7 +122,7 @@ fn body_average_stage(
 
 fn ccd_stage(
     loco: Res<Locomotion>,
-    mut q: Query<&mut SlothState>,
+    mut q: Query<(&mut SlothState, &mut CcdMemo)>,
     mut timings: ResMut<StageTimings>,
 ) {
     let t = Instant::now();
@@ -130,8 +131,8 @@ fn ccd_stage(
     let iterations = AtomicU64::new(0);
     q.par_iter_mut()
         .batching_strategy(BATCHING)
-        .for_each(|mut s| {
-            let n = s.0.solve_limbs(&w);
+        .for_each(|(mut s, mut memo)| {
+            let n = s.0.solve_limbs_memo(&w, &mut memo.0);
             iterations.fetch_add(n as u64, Ordering::Relaxed);
         });
     timings.last[3] = ms(t);

@@ -2,8 +2,8 @@
 
 use bevy_ecs::prelude::*;
 use slothsim_gait::{
-    Adjacency, CrowdGrid, HashedPoint, LocomotionConfig, RigData, Sloth, SpawnHint, TraceBatch,
-    World as LocoWorld,
+    Adjacency, CrowdGrid, HashedPoint, LocomotionConfig, RigData, Sloth, SolveMemo, SpawnHint,
+    TraceBatch, World as LocoWorld,
 };
 use slothsim_rig::{CcdParams, Rig};
 use slothsim_scene::{SupportId, TraceScene};
@@ -14,8 +14,13 @@ pub struct SlothId(pub u32);
 
 /// A sloth's locomotion state.
 #[derive(Component, Clone, Debug)]
-#[require(CrowdPoints)]
+#[require(CrowdPoints, CcdMemo)]
 pub struct SlothState(pub Sloth);
+
+/// What the CcdSolve stage keeps of a sloth's last solve, to skip the next one
+/// where it would change nothing ([`Sloth::solve_limbs_memo`]).
+#[derive(Component, Clone, Copy, Debug, Default)]
+pub struct CcdMemo(pub SolveMemo);
 
 /// The points a sloth occupies for the others ([`crowd_points`]) with their
 /// grid-cell hashes, written by the Transitions stage in parallel for the
