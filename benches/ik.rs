@@ -5,6 +5,9 @@
 //! `*_solve4` cases solve an animal's four limbs together (`solve4_prepared`, one limb
 //! per SIMD lane) and report time per limb (each call's time divided by 4); before
 //! timing, every solve4 result and pose is checked bit for bit against `solve`.
+//! `*_solve8` cases solve two animals' limbs in one call (`solve8_prepared_tolerances`,
+//! eight lanes: one AVX register where the CPU has AVX2), time divided by 8; the
+//! second animal's targets are the first's of the next step of the same path.
 //!
 //! `cargo bench --bench ik`
 
@@ -15,7 +18,7 @@ use criterion::{Criterion, criterion_group, criterion_main};
 use glam::{Quat, Vec3};
 use slothsim_rig::{
     CcdParams, CcdResult, ChainPose, FabrikParams, LimbChain, LimbChains4, Rig, RootTransform,
-    fabrik, solve, solve4_prepared,
+    fabrik, solve, solve4_prepared, solve8_prepared_tolerances,
 };
 
 /// Deterministic xorshift in [0, 1).
@@ -257,6 +260,54 @@ fn bench_ik(c: &mut Criterion) {
                 ));
             }
             let per_limb: Duration = t0.elapsed() / 4;
+            per_limb
+        })
+    });
+    group.bench_function("cold_limb_solve8", |b| {
+        let mut k = 0usize;
+        b.iter_custom(|iters| {
+            let t0 = Instant::now();
+            for _ in 0..iters {
+                let targets: [Vec3; 8] =
+                    std::array::from_fn(|i| cold[i % 4][(k + i / 4) % cold[i % 4].len()]);
+                k += 2;
+                let mut poses = [ChainPose::NEUTRAL; 8];
+                black_box(solve8_prepared_tolerances(
+                    &prepared,
+                    [root(); 8],
+                    black_box(targets),
+                    &mut poses,
+                    &params,
+                    [params.tolerance; 8],
+                ));
+                black_box(&poses);
+            }
+            // One iteration solves eight limbs: report per limb.
+            t0.elapsed() / 8
+        })
+    });
+    group.bench_function("warm_2mm_limb_solve8", |b| {
+        let mut poses = [ChainPose::NEUTRAL; 8];
+        for (i, pose) in poses.iter_mut().enumerate() {
+            solve(&chains[i % 4], root(), warm[i % 4][i / 4], pose, &params);
+        }
+        let mut frame = 1usize;
+        b.iter_custom(|iters| {
+            let t0 = Instant::now();
+            for _ in 0..iters {
+                let targets: [Vec3; 8] =
+                    std::array::from_fn(|i| warm[i % 4][(frame + i / 4) % warm[i % 4].len()]);
+                frame += 1;
+                black_box(solve8_prepared_tolerances(
+                    &prepared,
+                    [root(); 8],
+                    black_box(targets),
+                    &mut poses,
+                    &params,
+                    [params.tolerance; 8],
+                ));
+            }
+            let per_limb: Duration = t0.elapsed() / 8;
             per_limb
         })
     });

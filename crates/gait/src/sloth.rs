@@ -17,7 +17,7 @@
 
 use glam::{Quat, Vec3};
 use serde::{Deserialize, Serialize};
-use slothsim_rig::{CcdParams, ChainPose, Limb, RootTransform};
+use slothsim_rig::{CcdParams, CcdResult, ChainPose, Limb, RootTransform};
 use slothsim_scene::{
     LineTrace, Scene, SceneQuery, SupportId, SupportKind, TraceRequest, TraceResult,
 };
@@ -346,6 +346,36 @@ pub struct SolveMemo {
     fixed: Option<(SolveKey, u32)>,
 }
 
+impl SolveMemo {
+    /// The sweep count of the unchanged solve `key` matches, if it does.
+    fn hit(&self, key: &SolveKey) -> Option<u32> {
+        self.fixed
+            .as_ref()
+            .and_then(|(fixed, iterations)| (fixed == key).then_some(*iterations))
+    }
+
+    /// After a solve from `key`: kept where it left the sloth unchanged.
+    fn keep(&mut self, sloth: &Sloth, key: SolveKey, iterations: u32) {
+        self.fixed = (sloth.solve_key() == key).then_some((key, iterations));
+    }
+}
+
+/// What [`Sloth::solve_limbs`] computes before its IK: each limb's chain root,
+/// target (world and root space) and whether it stays settled.
+struct SolvePrep {
+    roots: [RootTransform; 4],
+    targets: [Vec3; 4],
+    targets_ls: [Vec3; 4],
+    settled: [bool; 4],
+}
+
+impl SolvePrep {
+    /// Nothing to solve: every limb keeps its settled pose.
+    fn all_settled(&self) -> bool {
+        self.settled.iter().all(|&s| s)
+    }
+}
+
 /// Serde for [`ChainPose`] (four quaternions, bit-exact through serde's f32).
 mod pose_serde {
     use glam::Quat;
@@ -554,6 +584,9 @@ fn search_ahead(w: &World<'_>, g: Grip) -> Search {
 
 /// Swing progress points at which a step's transient stance is checked.
 const SWING_CHECKS: [f32; 3] = [0.3, 0.55, 0.8];
+
+/// Stances a step check solves: the arc's points and the end.
+const STANCE_CHECKS: usize = SWING_CHECKS.len() + 1;
 
 /// Further swing progress points at which a branch ↔ trunk step's body is
 /// checked for penetration (every 5 % with [`SWING_CHECKS`]).
@@ -1104,7 +1137,7 @@ impl Sloth {
                 roots: std::array::from_fn(|i| w.rig.root_ws(i, pos, rot)),
             }
         };
-        let stances: [StanceCheck; SWING_CHECKS.len() + 1] =
+        let stances: [StanceCheck; STANCE_CHECKS] =
             std::array::from_fn(|k| stance_at(SWING_CHECKS.get(k).copied()));
         // A step between a branch and a trunk rolls the body fast: between
         // the IK checks' arc points it could enter a support the points do
@@ -1148,28 +1181,22 @@ impl Sloth {
 
     /// The CCD part of [`Self::step_reachable`]: every limb with a finite
     /// tolerance reaches its target in every stance ([`reach_check`] from the
-    /// limb's pose, the four limbs of a stance at once in SIMD lanes: each lane
-    /// is exactly that scalar check). The end stance goes first: its stepping
-    /// limb is the check that fails most often (the search tries the farthest
-    /// candidates first).
-    fn stances_hold(&self, w: &World<'_>, stances: &[StanceCheck]) -> bool {
-        let last = stances.len() - 1;
+    /// limb's pose, the four limbs of a stance at once in SIMD lanes, two
+    /// stances per call: each lane is exactly that scalar check). The end
+    /// stance goes first: its stepping limb is the check that fails most
+    /// often (the search tries the farthest candidates first); it is solved
+    /// with the first arc point (nearly every call that gets this far checks
+    /// all of them).
+    fn stances_hold(&self, w: &World<'_>, stances: &[StanceCheck; STANCE_CHECKS]) -> bool {
         let base = CcdParams {
             max_iterations: CHECK_MAX_ITERATIONS,
             ..*w.ccd
         };
         let params = check_params(&base);
-        std::iter::once(last).chain(0..last).all(|k| {
-            let st = &stances[k];
-            let mut poses = self.limbs.map(|l| l.pose);
-            let r = slothsim_rig::solve4_prepared_tolerances(
-                &w.rig.chains4,
-                st.roots,
-                st.grips,
-                &mut poses,
-                &params,
-                st.tol,
-            );
+        // The end stance (the last), then the arc's points in order.
+        let order: [usize; STANCE_CHECKS] =
+            std::array::from_fn(|k| (k + STANCE_CHECKS - 1) % STANCE_CHECKS);
+        let holds = |st: &StanceCheck, poses: &mut [ChainPose], r: &[CcdResult]| {
             (0..4).all(|i| {
                 // An infinite tolerance: the stepping limb is in the air.
                 st.tol[i] == f32::INFINITY
@@ -1184,6 +1211,38 @@ impl Sloth {
                     )
                     .0
             })
+        };
+        order.chunks(2).all(|ks| match *ks {
+            [a, b] => {
+                let (sa, sb) = (&stances[a], &stances[b]);
+                // Lanes 0..4: stance `a`'s limbs; 4..8: stance `b`'s.
+                let st = |i: usize| if i < 4 { sa } else { sb };
+                let mut poses: [ChainPose; 8] = std::array::from_fn(|i| self.limbs[i % 4].pose);
+                let r = slothsim_rig::solve8_prepared_tolerances(
+                    &w.rig.chains4,
+                    std::array::from_fn(|i| st(i).roots[i % 4]),
+                    std::array::from_fn(|i| st(i).grips[i % 4]),
+                    &mut poses,
+                    &params,
+                    std::array::from_fn(|i| st(i).tol[i % 4]),
+                );
+                let (pa, pb) = poses.split_at_mut(4);
+                holds(sa, pa, &r[..4]) && holds(sb, pb, &r[4..])
+            }
+            [k] => {
+                let st = &stances[k];
+                let mut poses = self.limbs.map(|l| l.pose);
+                let r = slothsim_rig::solve4_prepared_tolerances(
+                    &w.rig.chains4,
+                    st.roots,
+                    st.grips,
+                    &mut poses,
+                    &params,
+                    st.tol,
+                );
+                holds(st, &mut poses, &r)
+            }
+            _ => unreachable!("chunks of two"),
         })
     }
 
@@ -2200,7 +2259,60 @@ impl Sloth {
     /// points only), the body is moved by the planted limbs' mean residual
     /// and the limbs solved again; kept only if that brings the claws closer.
     pub fn solve_limbs(&mut self, w: &World<'_>) -> u32 {
-        let mut iterations = self.solve_limbs_with(w, w.ccd);
+        let iterations = self.solve_limbs_with(w, w.ccd);
+        self.pull_to_grips(w, iterations)
+    }
+
+    /// [`Sloth::solve_limbs`] of two sloths at once: their limbs share the
+    /// SIMD lanes of one solve where both have limbs to solve (about half the
+    /// work of two calls on CPUs with AVX2). Each sloth ends exactly as its own
+    /// `solve_limbs` would leave it, bit for bit.
+    pub fn solve_limbs_pair(a: &mut Sloth, b: &mut Sloth, w: &World<'_>) -> [u32; 2] {
+        let params = w.ccd;
+        let (pa, pb) = (a.solve_prepare(w), b.solve_prepare(w));
+        let (sa, sb) = match (pa.all_settled(), pb.all_settled()) {
+            (false, false) => {
+                let mut poses: [ChainPose; 8] = std::array::from_fn(|i| {
+                    if i < 4 {
+                        a.limbs[i].pose
+                    } else {
+                        b.limbs[i - 4].pose
+                    }
+                });
+                let r = slothsim_rig::solve8_prepared_tolerances(
+                    &w.rig.chains4,
+                    std::array::from_fn(|i| if i < 4 { pa.roots[i] } else { pb.roots[i - 4] }),
+                    std::array::from_fn(|i| {
+                        if i < 4 {
+                            pa.targets[i]
+                        } else {
+                            pb.targets[i - 4]
+                        }
+                    }),
+                    &mut poses,
+                    params,
+                    [params.tolerance; 8],
+                );
+                let half = |k: usize| -> ([ChainPose; 4], [CcdResult; 4]) {
+                    (
+                        std::array::from_fn(|i| poses[k + i]),
+                        std::array::from_fn(|i| r[k + i]),
+                    )
+                };
+                (Some(half(0)), Some(half(4)))
+            }
+            (false, true) => (Some(a.solve_lanes(w, &pa, params)), None),
+            (true, false) => (None, Some(b.solve_lanes(w, &pb, params))),
+            (true, true) => (None, None),
+        };
+        let ia = a.solve_finish(w, params, &pa, sa);
+        let ib = b.solve_finish(w, params, &pb, sb);
+        [a.pull_to_grips(w, ia), b.pull_to_grips(w, ib)]
+    }
+
+    /// The second half of [`Sloth::solve_limbs`] after a first solve of
+    /// `iterations` sweeps: the body pulled toward planted claws left short.
+    fn pull_to_grips(&mut self, w: &World<'_>, mut iterations: u32) -> u32 {
         let (residual, err) = self.planted_residual();
         if err > STANCE_IK_TOLERANCE {
             let saved = (self.body_pos, self.limbs);
@@ -2224,14 +2336,41 @@ impl Sloth {
     /// with [`SolveMemo::default`]).
     pub fn solve_limbs_memo(&mut self, w: &World<'_>, memo: &mut SolveMemo) -> u32 {
         let key = self.solve_key();
-        if let Some((fixed, iterations)) = &memo.fixed
-            && *fixed == key
-        {
-            return *iterations;
+        if let Some(iterations) = memo.hit(&key) {
+            return iterations;
         }
         let iterations = self.solve_limbs(w);
-        memo.fixed = (self.solve_key() == key).then_some((key, iterations));
+        memo.keep(self, key, iterations);
         iterations
+    }
+
+    /// [`Sloth::solve_limbs_memo`] of two sloths, the solves paired as in
+    /// [`Sloth::solve_limbs_pair`] where both are needed.
+    pub fn solve_limbs_memo_pair(
+        (a, ma): (&mut Sloth, &mut SolveMemo),
+        (b, mb): (&mut Sloth, &mut SolveMemo),
+        w: &World<'_>,
+    ) -> [u32; 2] {
+        let (ka, kb) = (a.solve_key(), b.solve_key());
+        match (ma.hit(&ka), mb.hit(&kb)) {
+            (Some(ia), Some(ib)) => [ia, ib],
+            (Some(ia), None) => {
+                let ib = b.solve_limbs(w);
+                mb.keep(b, kb, ib);
+                [ia, ib]
+            }
+            (None, Some(ib)) => {
+                let ia = a.solve_limbs(w);
+                ma.keep(a, ka, ia);
+                [ia, ib]
+            }
+            (None, None) => {
+                let [ia, ib] = Sloth::solve_limbs_pair(a, b, w);
+                ma.keep(a, ka, ia);
+                mb.keep(b, kb, ib);
+                [ia, ib]
+            }
+        }
     }
 
     /// The bits of every field [`Sloth::solve_limbs`] reads or writes.
@@ -2280,6 +2419,13 @@ impl Sloth {
     }
 
     fn solve_limbs_with(&mut self, w: &World<'_>, params: &CcdParams) -> u32 {
+        let prep = self.solve_prepare(w);
+        let solved = (!prep.all_settled()).then(|| self.solve_lanes(w, &prep, params));
+        self.solve_finish(w, params, &prep, solved)
+    }
+
+    /// The roots, targets and settled limbs of a solve (see [`SolvePrep`]).
+    fn solve_prepare(&self, w: &World<'_>) -> SolvePrep {
         let roots: [RootTransform; 4] =
             std::array::from_fn(|li| w.rig.root_ws(li, self.body_pos, self.body_rot));
         let targets = self.targets();
@@ -2293,24 +2439,54 @@ impl Sloth {
                 .settled_ls
                 .is_some_and(|t| t.distance_squared(targets_ls[li]) <= SETTLED_MOVE * SETTLED_MOVE)
         });
-        // The four limbs in SIMD lanes, each lane exactly the single-limb solve.
+        SolvePrep {
+            roots,
+            targets,
+            targets_ls,
+            settled,
+        }
+    }
+
+    /// The four limbs in SIMD lanes, each lane exactly the single-limb solve:
+    /// the solved poses and results (the settled limbs' are not used).
+    fn solve_lanes(
+        &self,
+        w: &World<'_>,
+        prep: &SolvePrep,
+        params: &CcdParams,
+    ) -> ([ChainPose; 4], [CcdResult; 4]) {
         let mut poses = self.limbs.map(|l| l.pose);
-        let results = if settled.iter().all(|&s| s) {
-            None
-        } else {
-            Some(slothsim_rig::solve4_prepared(
-                &w.rig.chains4,
-                roots,
-                targets,
-                &mut poses,
-                params,
-            ))
-        };
+        let results = slothsim_rig::solve4_prepared(
+            &w.rig.chains4,
+            prep.roots,
+            prep.targets,
+            &mut poses,
+            params,
+        );
+        (poses, results)
+    }
+
+    /// The rest of a solve after its SIMD lanes (`solved`: `None` where every
+    /// limb is settled): resumed and cold solves where those fell short, the
+    /// settled targets, roots and effectors. Returns the sweeps.
+    fn solve_finish(
+        &mut self,
+        w: &World<'_>,
+        params: &CcdParams,
+        prep: &SolvePrep,
+        solved: Option<([ChainPose; 4], [CcdResult; 4])>,
+    ) -> u32 {
+        let SolvePrep {
+            roots,
+            targets_ls,
+            settled,
+            ..
+        } = *prep;
         let mut iterations = 0;
         for li in 0..4 {
             let root = roots[li];
             let l = &mut self.limbs[li];
-            if let (false, Some(results)) = (settled[li], results) {
+            if let (false, Some((poses, results))) = (settled[li], &solved) {
                 l.pose = poses[li];
                 let mut r = results[li];
                 iterations += r.iterations;

@@ -26,13 +26,17 @@ pub mod limb;
 pub mod limits;
 mod refine;
 pub mod rig;
+#[cfg(target_arch = "x86_64")]
+mod simd8;
 pub mod skeleton;
 pub mod sloth;
 #[cfg(test)]
 mod test_rng;
 
 pub use ccd::{CcdOrder, CcdParams, CcdResult, CcdStatus, solve};
-pub use ccd4::{LimbChains4, solve4, solve4_prepared, solve4_prepared_tolerances};
+pub use ccd4::{
+    LimbChains4, solve4, solve4_prepared, solve4_prepared_tolerances, solve8_prepared_tolerances,
+};
 pub use chain::{CHAIN_JOINTS, ChainPose, LimbChain, RootTransform};
 pub use error::RigError;
 pub use fabrik::FabrikParams;

@@ -11,9 +11,11 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Instant;
 
 use bevy_ecs::batching::BatchingStrategy;
+use bevy_ecs::change_detection::ContiguousMut;
 use bevy_ecs::prelude::*;
 use bevy_ecs::schedule::SingleThreadedExecutor;
 use bevy_tasks::{ComputeTaskPool, TaskPoolBuilder};
+use slothsim_gait::Sloth;
 
 use crate::world::{
     CcdMemo, CrowdNeighbours, CrowdPoints, Locomotion, SimClock, SlothId, SlothState, Traces,
@@ -129,12 +131,36 @@ fn ccd_stage(
     let w = loco.view();
     // An integer sum: the same for any order of the workers (deterministic).
     let iterations = AtomicU64::new(0);
-    q.par_iter_mut()
-        .batching_strategy(BATCHING)
-        .for_each(|(mut s, mut memo)| {
-            let n = s.0.solve_limbs_memo(&w, &mut memo.0);
-            iterations.fetch_add(n as u64, Ordering::Relaxed);
-        });
+    // Whole table slices, so neighbouring sloths share the SIMD lanes of one
+    // solve two by two (`Sloth::solve_limbs_memo_pair`: each ends exactly as
+    // its own solve would leave it, so the batching cannot change a bit).
+    let pairs = |(mut states, mut memos): (ContiguousMut<SlothState>, ContiguousMut<CcdMemo>)| {
+        let mut n = 0u64;
+        for (s, m) in states.chunks_mut(2).zip(memos.chunks_mut(2)) {
+            n += match (s, m) {
+                ([a, b], [ma, mb]) => {
+                    Sloth::solve_limbs_memo_pair((&mut a.0, &mut ma.0), (&mut b.0, &mut mb.0), &w)
+                        .iter()
+                        .map(|&k| u64::from(k))
+                        .sum()
+                }
+                ([a], [ma]) => u64::from(a.0.solve_limbs_memo(&w, &mut ma.0)),
+                _ => unreachable!("states and memos are rows of one table"),
+            };
+        }
+        iterations.fetch_add(n, Ordering::Relaxed);
+    };
+    match q.contiguous_par_iter_mut() {
+        Ok(it) => it.batching_strategy(BATCHING).for_each(pairs),
+        // Not dense (a sparse-set component was added): one sloth at a time.
+        Err(_) => q
+            .par_iter_mut()
+            .batching_strategy(BATCHING)
+            .for_each(|(mut s, mut m)| {
+                let n = s.0.solve_limbs_memo(&w, &mut m.0);
+                iterations.fetch_add(n as u64, Ordering::Relaxed);
+            }),
+    }
     timings.last[3] = ms(t);
     timings.ccd_iterations_last = iterations.into_inner();
     timings.ccd_iterations_total += timings.ccd_iterations_last;
