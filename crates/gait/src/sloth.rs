@@ -55,6 +55,15 @@ const BODY_FREE_TURN_RATE: f32 = 1.5;
 /// A limb settled short of its target stays so while the target moves less
 /// than this (metres) in the limb's root frame.
 const SETTLED_MOVE: f32 = 1e-5;
+/// A planted limb's cold restart (see [`Sloth::solve_limbs`]) that did not
+/// beat the warm solve by [`COLD_RETRY_GAIN`] is not tried again until the
+/// target has moved this far (metres, root frame) from where it failed. At the
+/// edge of the reach both end in the same pose (within 0.1 µm in a 1,000-sloth
+/// crowd, after 70–80 sweeps): retried every frame, the restarts cost a tenth
+/// of the tick.
+const COLD_RETRY_MOVE: f32 = 0.02;
+/// See [`COLD_RETRY_MOVE`] (metres).
+const COLD_RETRY_GAIN: f32 = 5e-4;
 /// See [`RECHECK_DISTANCE`].
 const RECHECK_NORMAL_COS: f32 = 0.9999;
 /// How far outside the surface a grip trace starts.
@@ -268,6 +277,10 @@ pub struct LimbState {
     /// short of it (joint limits): the pose is settled there until the target
     /// moves (see [`Sloth::solve_limbs`]).
     pub settled_ls: Option<Vec3>,
+    /// The target (chain-root frame) at which a cold restart of this planted
+    /// limb's solve last failed to beat its warm solve: not tried again within
+    /// [`COLD_RETRY_MOVE`] of it (cleared when the limb swings).
+    pub cold_miss_ls: Option<Vec3>,
 }
 
 /// Why a sloth stopped.
@@ -332,8 +345,9 @@ pub struct Sloth {
 }
 
 /// Words of a [`SolveKey`]: the body (position, rotation), then per limb its
-/// target, pose, settled target (with a flag), phase, root and effector.
-const SOLVE_KEY_LEN: usize = 7 + 4 * (3 + 16 + 4 + 1 + 3 + 3);
+/// target, pose, settled target and cold-miss target (each with a flag),
+/// phase, root and effector.
+const SOLVE_KEY_LEN: usize = 7 + 4 * (3 + 16 + 4 + 4 + 1 + 3 + 3);
 
 /// The bits of the fields [`Sloth::solve_limbs`] reads or writes.
 type SolveKey = [u32; SOLVE_KEY_LEN];
@@ -756,6 +770,7 @@ impl Sloth {
             },
             due: false,
             settled_ls: None,
+            cold_miss_ls: None,
         }; 4];
         let len = s.length();
         for limb in Limb::ALL {
@@ -2390,9 +2405,11 @@ impl Sloth {
             for q in l.pose.0 {
                 put(&q.to_array());
             }
-            match l.settled_ls {
-                Some(t) => put(&[1.0, t.x, t.y, t.z]),
-                None => put(&[0.0; 4]),
+            for v in [l.settled_ls, l.cold_miss_ls] {
+                match v {
+                    Some(t) => put(&[1.0, t.x, t.y, t.z]),
+                    None => put(&[0.0; 4]),
+                }
             }
             put(&[l.phase as u32 as f32]);
             put(&l.root.to_array());
@@ -2486,6 +2503,9 @@ impl Sloth {
         for li in 0..4 {
             let root = roots[li];
             let l = &mut self.limbs[li];
+            if l.phase == LimbPhase::Swinging {
+                l.cold_miss_ls = None;
+            }
             if let (false, Some((poses, results))) = (settled[li], &solved) {
                 l.pose = poses[li];
                 let mut r = results[li];
@@ -2507,12 +2527,18 @@ impl Sloth {
                 // may have carried the limb into a fold (a local minimum at
                 // the joint limits) the step check, started elsewhere, did not
                 // use. A cold start gets another chance (rare: a limb stays
-                // settled until its target moves).
-                if r.error > STANCE_IK_TOLERANCE && l.phase != LimbPhase::Swinging {
+                // settled until its target moves), but not again near where
+                // one failed.
+                let tried_here = l.cold_miss_ls.is_some_and(|t| {
+                    t.distance_squared(targets_ls[li]) <= COLD_RETRY_MOVE * COLD_RETRY_MOVE
+                });
+                if l.phase != LimbPhase::Swinging && r.error > STANCE_IK_TOLERANCE && !tried_here {
                     let mut cold = ChainPose::NEUTRAL;
                     let c =
                         slothsim_rig::solve(&w.rig.chains[li], root, l.target, &mut cold, params);
                     iterations += c.iterations;
+                    l.cold_miss_ls =
+                        (c.error > r.error - COLD_RETRY_GAIN).then_some(targets_ls[li]);
                     if c.error < r.error {
                         l.pose = cold;
                         r = c;
