@@ -390,6 +390,16 @@ impl SolvePrep {
     }
 }
 
+/// Eight SIMD lanes' values: `a`'s in lanes 0..4, `b`'s in 4..8.
+fn lanes8<T: Copy>(a: [T; 4], b: [T; 4]) -> [T; 8] {
+    std::array::from_fn(|i| if i < 4 { a[i] } else { b[i - 4] })
+}
+
+/// Lanes `k..k + 4` of eight.
+fn lanes4<T: Copy>(v: &[T; 8], k: usize) -> [T; 4] {
+    std::array::from_fn(|i| v[k + i])
+}
+
 /// Serde for [`ChainPose`] (four quaternions, bit-exact through serde's f32).
 mod pose_serde {
     use glam::Quat;
@@ -1230,16 +1240,15 @@ impl Sloth {
         order.chunks(2).all(|ks| match *ks {
             [a, b] => {
                 let (sa, sb) = (&stances[a], &stances[b]);
-                // Lanes 0..4: stance `a`'s limbs; 4..8: stance `b`'s.
-                let st = |i: usize| if i < 4 { sa } else { sb };
-                let mut poses: [ChainPose; 8] = std::array::from_fn(|i| self.limbs[i % 4].pose);
+                let pose = self.limbs.map(|l| l.pose);
+                let mut poses = lanes8(pose, pose);
                 let r = slothsim_rig::solve8_prepared_tolerances(
                     &w.rig.chains4,
-                    std::array::from_fn(|i| st(i).roots[i % 4]),
-                    std::array::from_fn(|i| st(i).grips[i % 4]),
+                    lanes8(sa.roots, sb.roots),
+                    lanes8(sa.grips, sb.grips),
                     &mut poses,
                     &params,
-                    std::array::from_fn(|i| st(i).tol[i % 4]),
+                    lanes8(sa.tol, sb.tol),
                 );
                 let (pa, pb) = poses.split_at_mut(4);
                 holds(sa, pa, &r[..4]) && holds(sb, pb, &r[4..])
@@ -2287,33 +2296,16 @@ impl Sloth {
         let (pa, pb) = (a.solve_prepare(w), b.solve_prepare(w));
         let (sa, sb) = match (pa.all_settled(), pb.all_settled()) {
             (false, false) => {
-                let mut poses: [ChainPose; 8] = std::array::from_fn(|i| {
-                    if i < 4 {
-                        a.limbs[i].pose
-                    } else {
-                        b.limbs[i - 4].pose
-                    }
-                });
+                let mut poses = lanes8(a.limbs.map(|l| l.pose), b.limbs.map(|l| l.pose));
                 let r = slothsim_rig::solve8_prepared_tolerances(
                     &w.rig.chains4,
-                    std::array::from_fn(|i| if i < 4 { pa.roots[i] } else { pb.roots[i - 4] }),
-                    std::array::from_fn(|i| {
-                        if i < 4 {
-                            pa.targets[i]
-                        } else {
-                            pb.targets[i - 4]
-                        }
-                    }),
+                    lanes8(pa.roots, pb.roots),
+                    lanes8(pa.targets, pb.targets),
                     &mut poses,
                     params,
                     [params.tolerance; 8],
                 );
-                let half = |k: usize| -> ([ChainPose; 4], [CcdResult; 4]) {
-                    (
-                        std::array::from_fn(|i| poses[k + i]),
-                        std::array::from_fn(|i| r[k + i]),
-                    )
-                };
+                let half = |k: usize| (lanes4(&poses, k), lanes4(&r, k));
                 (Some(half(0)), Some(half(4)))
             }
             (false, true) => (Some(a.solve_lanes(w, &pa, params)), None),
@@ -2351,9 +2343,14 @@ impl Sloth {
     /// with [`SolveMemo::default`]).
     pub fn solve_limbs_memo(&mut self, w: &World<'_>, memo: &mut SolveMemo) -> u32 {
         let key = self.solve_key();
-        if let Some(iterations) = memo.hit(&key) {
-            return iterations;
+        match memo.hit(&key) {
+            Some(iterations) => iterations,
+            None => self.solve_limbs_kept(w, memo, key),
         }
+    }
+
+    /// [`Sloth::solve_limbs`] from the state `key`, remembered in `memo`.
+    fn solve_limbs_kept(&mut self, w: &World<'_>, memo: &mut SolveMemo, key: SolveKey) -> u32 {
         let iterations = self.solve_limbs(w);
         memo.keep(self, key, iterations);
         iterations
@@ -2369,16 +2366,8 @@ impl Sloth {
         let (ka, kb) = (a.solve_key(), b.solve_key());
         match (ma.hit(&ka), mb.hit(&kb)) {
             (Some(ia), Some(ib)) => [ia, ib],
-            (Some(ia), None) => {
-                let ib = b.solve_limbs(w);
-                mb.keep(b, kb, ib);
-                [ia, ib]
-            }
-            (None, Some(ib)) => {
-                let ia = a.solve_limbs(w);
-                ma.keep(a, ka, ia);
-                [ia, ib]
-            }
+            (Some(ia), None) => [ia, b.solve_limbs_kept(w, mb, kb)],
+            (None, Some(ib)) => [a.solve_limbs_kept(w, ma, ka), ib],
             (None, None) => {
                 let [ia, ib] = Sloth::solve_limbs_pair(a, b, w);
                 ma.keep(a, ka, ia);
