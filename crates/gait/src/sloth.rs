@@ -2356,25 +2356,42 @@ impl Sloth {
         iterations
     }
 
-    /// [`Sloth::solve_limbs_memo`] of two sloths, the solves paired as in
-    /// [`Sloth::solve_limbs_pair`] where both are needed.
-    pub fn solve_limbs_memo_pair(
-        (a, ma): (&mut Sloth, &mut SolveMemo),
-        (b, mb): (&mut Sloth, &mut SolveMemo),
+    /// [`Sloth::solve_limbs_memo`] of every sloth of a batch (`memos[i]` is
+    /// `sloths[i]`'s), the solves that are not skipped paired two by two as in
+    /// [`Sloth::solve_limbs_pair`] (in batch order, so each sloth ends exactly
+    /// as its own solve would leave it). Returns the sweeps of all.
+    pub fn solve_limbs_batch<S: AsMut<Sloth>, M: AsMut<SolveMemo>>(
+        sloths: &mut [S],
+        memos: &mut [M],
         w: &World<'_>,
-    ) -> [u32; 2] {
-        let (ka, kb) = (a.solve_key(), b.solve_key());
-        match (ma.hit(&ka), mb.hit(&kb)) {
-            (Some(ia), Some(ib)) => [ia, ib],
-            (Some(ia), None) => [ia, b.solve_limbs_kept(w, mb, kb)],
-            (None, Some(ib)) => [a.solve_limbs_kept(w, ma, ka), ib],
-            (None, None) => {
-                let [ia, ib] = Sloth::solve_limbs_pair(a, b, w);
-                ma.keep(a, ka, ia);
-                mb.keep(b, kb, ib);
-                [ia, ib]
+    ) -> u64 {
+        assert_eq!(sloths.len(), memos.len(), "one memo per sloth");
+        let mut sweeps = 0u64;
+        // A sloth to solve, waiting for a partner, and its state's key.
+        let mut pending: Option<(usize, SolveKey)> = None;
+        for i in 0..sloths.len() {
+            let key = sloths[i].as_mut().solve_key();
+            if let Some(n) = memos[i].as_mut().hit(&key) {
+                sweeps += u64::from(n);
+                continue;
             }
+            let Some((j, key_j)) = pending.take() else {
+                pending = Some((i, key));
+                continue;
+            };
+            let (s_lo, s_hi) = sloths.split_at_mut(i);
+            let (m_lo, m_hi) = memos.split_at_mut(i);
+            let (a, b) = (s_lo[j].as_mut(), s_hi[0].as_mut());
+            let [na, nb] = Sloth::solve_limbs_pair(a, b, w);
+            m_lo[j].as_mut().keep(a, key_j, na);
+            m_hi[0].as_mut().keep(b, key, nb);
+            sweeps += u64::from(na) + u64::from(nb);
         }
+        if let Some((j, key_j)) = pending {
+            let n = sloths[j].as_mut().solve_limbs_kept(w, memos[j].as_mut(), key_j);
+            sweeps += u64::from(n);
+        }
+        sweeps
     }
 
     /// The bits of every field [`Sloth::solve_limbs`] reads or writes.

@@ -131,27 +131,15 @@ fn ccd_stage(
     let w = loco.view();
     // An integer sum: the same for any order of the workers (deterministic).
     let iterations = AtomicU64::new(0);
-    // Whole table slices, so neighbouring sloths share the SIMD lanes of one
-    // solve two by two (`Sloth::solve_limbs_memo_pair`: each ends exactly as
-    // its own solve would leave it, so the batching cannot change a bit).
-    let pairs = |(mut states, mut memos): (ContiguousMut<SlothState>, ContiguousMut<CcdMemo>)| {
-        let mut n = 0u64;
-        for (s, m) in states.chunks_mut(2).zip(memos.chunks_mut(2)) {
-            n += match (s, m) {
-                ([a, b], [ma, mb]) => {
-                    Sloth::solve_limbs_memo_pair((&mut a.0, &mut ma.0), (&mut b.0, &mut mb.0), &w)
-                        .iter()
-                        .map(|&k| u64::from(k))
-                        .sum()
-                }
-                ([a], [ma]) => u64::from(a.0.solve_limbs_memo(&w, &mut ma.0)),
-                _ => unreachable!("states and memos are rows of one table"),
-            };
-        }
+    // Whole table slices, so the sloths to solve share the SIMD lanes of one
+    // solve two by two (`Sloth::solve_limbs_batch`: each ends exactly as its
+    // own solve would leave it, so the batching cannot change a bit).
+    let batch = |(mut states, mut memos): (ContiguousMut<SlothState>, ContiguousMut<CcdMemo>)| {
+        let n = Sloth::solve_limbs_batch(&mut states, &mut memos, &w);
         iterations.fetch_add(n, Ordering::Relaxed);
     };
     match q.contiguous_par_iter_mut() {
-        Ok(it) => it.batching_strategy(BATCHING).for_each(pairs),
+        Ok(it) => it.batching_strategy(BATCHING).for_each(batch),
         // Not dense (a sparse-set component was added): one sloth at a time.
         Err(_) => q
             .par_iter_mut()

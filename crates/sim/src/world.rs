@@ -22,6 +22,18 @@ pub struct SlothState(pub Sloth);
 #[derive(Component, Clone, Copy, Debug, Default)]
 pub struct CcdMemo(pub SolveMemo);
 
+impl AsMut<Sloth> for SlothState {
+    fn as_mut(&mut self) -> &mut Sloth {
+        &mut self.0
+    }
+}
+
+impl AsMut<SolveMemo> for CcdMemo {
+    fn as_mut(&mut self) -> &mut SolveMemo {
+        &mut self.0
+    }
+}
+
 /// The points a sloth occupies for the others ([`crowd_points`]) with their
 /// grid-cell hashes, written by the Transitions stage in parallel for the
 /// neighbour grid's serial rebuild.
