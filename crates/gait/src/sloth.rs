@@ -362,15 +362,18 @@ pub struct SolveMemo {
 
 impl SolveMemo {
     /// The sweep count of the unchanged solve `key` matches, if it does.
-    fn hit(&self, key: &SolveKey) -> Option<u32> {
-        self.fixed
-            .as_ref()
-            .and_then(|(fixed, iterations)| (fixed == key).then_some(*iterations))
+    fn hit(&self, key: &Option<SolveKey>) -> Option<u32> {
+        match (&self.fixed, key) {
+            (Some((fixed, iterations)), Some(key)) => (fixed == key).then_some(*iterations),
+            _ => None,
+        }
     }
 
     /// After a solve from `key`: kept where it left the sloth unchanged.
-    fn keep(&mut self, sloth: &Sloth, key: SolveKey, iterations: u32) {
-        self.fixed = (sloth.solve_key() == key).then_some((key, iterations));
+    fn keep(&mut self, sloth: &Sloth, key: Option<SolveKey>, iterations: u32) {
+        self.fixed = key
+            .filter(|key| sloth.solve_key().as_ref() == Some(key))
+            .map(|key| (key, iterations));
     }
 }
 
@@ -2350,7 +2353,12 @@ impl Sloth {
     }
 
     /// [`Sloth::solve_limbs`] from the state `key`, remembered in `memo`.
-    fn solve_limbs_kept(&mut self, w: &World<'_>, memo: &mut SolveMemo, key: SolveKey) -> u32 {
+    fn solve_limbs_kept(
+        &mut self,
+        w: &World<'_>,
+        memo: &mut SolveMemo,
+        key: Option<SolveKey>,
+    ) -> u32 {
         let iterations = self.solve_limbs(w);
         memo.keep(self, key, iterations);
         iterations
@@ -2368,7 +2376,7 @@ impl Sloth {
         assert_eq!(sloths.len(), memos.len(), "one memo per sloth");
         let mut sweeps = 0u64;
         // A sloth to solve, waiting for a partner, and its state's key.
-        let mut pending: Option<(usize, SolveKey)> = None;
+        let mut pending: Option<(usize, Option<SolveKey>)> = None;
         for i in 0..sloths.len() {
             let key = sloths[i].as_mut().solve_key();
             if let Some(n) = memos[i].as_mut().hit(&key) {
@@ -2388,14 +2396,20 @@ impl Sloth {
             sweeps += u64::from(na) + u64::from(nb);
         }
         if let Some((j, key_j)) = pending {
-            let n = sloths[j].as_mut().solve_limbs_kept(w, memos[j].as_mut(), key_j);
+            let n = sloths[j]
+                .as_mut()
+                .solve_limbs_kept(w, memos[j].as_mut(), key_j);
             sweeps += u64::from(n);
         }
         sweeps
     }
 
-    /// The bits of every field [`Sloth::solve_limbs`] reads or writes.
-    fn solve_key(&self) -> SolveKey {
+    /// The bits of every field [`Sloth::solve_limbs`] reads or writes; `None`
+    /// while a limb swings (its target moves every frame: never skipped).
+    fn solve_key(&self) -> Option<SolveKey> {
+        if self.limbs.iter().any(|l| l.phase == LimbPhase::Swinging) {
+            return None;
+        }
         let mut k = [0u32; SOLVE_KEY_LEN];
         let mut at = 0;
         let mut put = |v: &[f32]| {
@@ -2422,7 +2436,7 @@ impl Sloth {
             put(&l.effector.to_array());
         }
         debug_assert_eq!(at, SOLVE_KEY_LEN);
-        k
+        Some(k)
     }
 
     /// The mean of the planted limbs' claw → target vectors over those off
