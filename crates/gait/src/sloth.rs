@@ -2315,8 +2315,15 @@ impl Sloth {
             (true, false) => (None, Some(b.solve_lanes(w, &pb, params))),
             (true, true) => (None, None),
         };
-        let ia = a.solve_finish(w, params, &pa, sa);
-        let ib = b.solve_finish(w, params, &pb, sb);
+        let ia = a.solve_finish_limbs(w, params, &pa, sa);
+        let ib = b.solve_finish_limbs(w, params, &pb, sb);
+        let poses = lanes8(a.limbs.map(|l| l.pose), b.limbs.map(|l| l.pose));
+        let fk = w
+            .rig
+            .chains4
+            .fk_effectors8(&lanes8(pa.roots, pb.roots), &poses);
+        a.set_effectors(lanes4(&fk, 0));
+        b.set_effectors(lanes4(&fk, 4));
         [a.pull_to_grips(w, ia), b.pull_to_grips(w, ib)]
     }
 
@@ -2504,9 +2511,23 @@ impl Sloth {
     }
 
     /// The rest of a solve after its SIMD lanes (`solved`: `None` where every
-    /// limb is settled): resumed and cold solves where those fell short, the
-    /// settled targets, roots and effectors. Returns the sweeps.
+    /// limb is settled): [`Sloth::solve_finish_limbs`], then the effectors.
     fn solve_finish(
+        &mut self,
+        w: &World<'_>,
+        params: &CcdParams,
+        prep: &SolvePrep,
+        solved: Option<([ChainPose; 4], [CcdResult; 4])>,
+    ) -> u32 {
+        let iterations = self.solve_finish_limbs(w, params, prep, solved);
+        let poses = self.limbs.map(|l| l.pose);
+        self.set_effectors(w.rig.chains4.fk_effectors(&prep.roots, &poses));
+        iterations
+    }
+
+    /// Resumed and cold solves where the SIMD lanes fell short, the settled
+    /// targets and the roots (not the effectors). Returns the sweeps.
+    fn solve_finish_limbs(
         &mut self,
         w: &World<'_>,
         params: &CcdParams,
@@ -2568,12 +2589,14 @@ impl Sloth {
             }
             l.root = root.position.into();
         }
-        let poses = self.limbs.map(|l| l.pose);
-        let effectors = w.rig.chains4.fk_effectors(&roots, &poses);
+        iterations
+    }
+
+    /// The claws where the limbs' poses put them (world space).
+    fn set_effectors(&mut self, effectors: [Vec3; 4]) {
         for (l, effector) in self.limbs.iter_mut().zip(effectors) {
             l.effector = effector;
         }
-        iterations
     }
 
     // ---------------------------------------------------------------- stage 5

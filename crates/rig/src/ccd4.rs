@@ -33,7 +33,7 @@
 use glam::Vec3;
 
 use crate::ccd::{CcdParams, CcdResult};
-use crate::chain::{CHAIN_JOINTS, ChainPose, LimbChain, RootTransform};
+use crate::chain::{ChainPose, LimbChain, RootTransform};
 
 /// The kernel at four lanes: `glam`'s `Vec4` (SSE).
 mod lanes4 {
@@ -90,10 +90,11 @@ pub struct LimbChains4 {
     chains: [LimbChain; 4],
     /// `None` when the chains do not have the layout the vector path handles.
     soa: Option<Chains>,
-    /// The same at eight lanes (lane `i` = chain `i % 4`), for
-    /// [`solve8_prepared_tolerances`]; `None` also where the CPU lacks AVX2.
+    /// The same at eight lanes (lane `i` = chain `i % 4`) with its forward
+    /// kinematics' first joint, for [`solve8_prepared_tolerances`] and
+    /// [`LimbChains4::fk_effectors8`]; `None` also where the CPU lacks AVX2.
     #[cfg(target_arch = "x86_64")]
-    soa8: Option<lanes8::Chains>,
+    soa8: Option<(lanes8::Chains, (lanes8::V, lanes8::Q))>,
     /// The forward kinematics' first joint before its pose: its position
     /// (`0 + 1 · offset₀`) and `1 · rest₀`, the operations [`LimbChain::fk_local`]
     /// starts with (constants of the chains: computed once, the same bits).
@@ -104,12 +105,7 @@ impl LimbChains4 {
     /// Prepare four chains (lane `i` = `chains[i]`).
     pub fn new(chains: [&LimbChain; 4]) -> Self {
         let soa = Chains::new(chains);
-        let fk_first = soa.as_ref().map(|c| {
-            (
-                V::ZERO.add(Q::IDENTITY.rotate(c.offsets[0])),
-                Q::IDENTITY.mul(c.rest[0]),
-            )
-        });
+        let fk_first = soa.as_ref().map(lanes4::fk_first);
         #[cfg(target_arch = "x86_64")]
         let soa8 = if std::arch::is_x86_feature_detected!("avx2") {
             let eight = std::array::from_fn(|i| chains[i % 4]);
@@ -136,22 +132,42 @@ impl LimbChains4 {
     /// `chains()[i].fk_effector(roots[i], &poses[i])` (the forward kinematics
     /// of [`LimbChain::fk_local`] in SIMD lanes, its operations in its order).
     pub fn fk_effectors(&self, roots: &[RootTransform; 4], poses: &[ChainPose; 4]) -> [Vec3; 4] {
-        let (Some(c), Some((first_pos, first_rest))) = (&self.soa, self.fk_first) else {
-            return std::array::from_fn(|i| self.chains[i].fk_effector(roots[i], &poses[i]));
-        };
-        let pose = |j: usize| Q::gather(poses.map(|p| p.0[j]));
-        let mut parent_pos = first_pos;
-        let mut parent_rot = first_rest.mul(pose(0));
-        for j in 1..CHAIN_JOINTS {
-            parent_pos = parent_pos.add(parent_rot.rotate(c.offsets[j]));
-            parent_rot = parent_rot.mul(c.rest[j]).mul(pose(j));
+        match (&self.soa, self.fk_first) {
+            (Some(c), Some(first)) => lanes4::fk_effectors(c, first, roots, poses),
+            _ => std::array::from_fn(|i| self.chains[i].fk_effector(roots[i], &poses[i])),
         }
-        let local = parent_pos.add(parent_rot.rotate(c.effector));
-        let rot = Q::gather(roots.map(|r| r.rotation));
-        let pos = V::gather(roots.map(|r| r.position));
-        // `RootTransform::transform_point`: `position + rotation * p`.
-        pos.add(rot.rotate(local)).scatter().map(Vec3::from)
     }
+
+    /// [`LimbChains4::fk_effectors`] of two sets of the four chains (lane `i`
+    /// on chain `i % 4`), in one AVX register where the CPU has AVX2; the same
+    /// bits.
+    pub fn fk_effectors8(&self, roots: &[RootTransform; 8], poses: &[ChainPose; 8]) -> [Vec3; 8] {
+        #[cfg(target_arch = "x86_64")]
+        if let Some((c8, first)) = &self.soa8 {
+            // SAFETY: `soa8` exists only where the CPU has AVX2 (see `LimbChains4::new`).
+            return unsafe { fk8_avx2(c8, *first, roots, poses) };
+        }
+        let half = |k: usize| {
+            self.fk_effectors(
+                &std::array::from_fn(|i| roots[k + i]),
+                &std::array::from_fn(|i| poses[k + i]),
+            )
+        };
+        let (a, b) = (half(0), half(4));
+        std::array::from_fn(|i| if i < 4 { a[i] } else { b[i - 4] })
+    }
+}
+
+/// [`lanes8::fk_effectors`], compiled with AVX2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn fk8_avx2(
+    c: &lanes8::Chains,
+    first: (lanes8::V, lanes8::Q),
+    roots: &[RootTransform; 8],
+    poses: &[ChainPose; 8],
+) -> [Vec3; 8] {
+    lanes8::fk_effectors(c, first, roots, poses)
 }
 
 /// Solve four limb chains at once (one per SIMD lane; see the module docs). Each lane
@@ -216,7 +232,7 @@ pub fn solve8_prepared_tolerances(
     tolerances: [f32; 8],
 ) -> [CcdResult; 8] {
     #[cfg(target_arch = "x86_64")]
-    if let Some(c8) = &chains.soa8 {
+    if let Some((c8, _)) = &chains.soa8 {
         let c = &chains.chains;
         let refs: [&LimbChain; 8] = std::array::from_fn(|i| &c[i % 4]);
         let layout = lanes8::Layout::Prepared(Some(c8));
@@ -240,11 +256,14 @@ pub fn solve8_prepared_tolerances(
     std::array::from_fn(|i| if i < 4 { a[i] } else { b[i - 4] })
 }
 
-/// The eight-lane transposed chains, built with AVX2 enabled.
+/// The eight-lane transposed chains and their first joint, built with AVX2 enabled.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-fn chains8_avx2(chains: [&LimbChain; 8]) -> Option<lanes8::Chains> {
-    lanes8::Chains::new(chains)
+fn chains8_avx2(chains: [&LimbChain; 8]) -> Option<(lanes8::Chains, (lanes8::V, lanes8::Q))> {
+    lanes8::Chains::new(chains).map(|c| {
+        let first = lanes8::fk_first(&c);
+        (c, first)
+    })
 }
 
 /// The eight-lane kernel, compiled with AVX2.
@@ -391,6 +410,30 @@ mod tests {
             let fk = prepared.fk_effectors(&roots, &poses);
             for i in 0..4 {
                 let want = chains[i].fk_effector(roots[i], &poses[i]);
+                assert_eq!(
+                    fk[i].to_array().map(f32::to_bits),
+                    want.to_array().map(f32::to_bits)
+                );
+            }
+        }
+    }
+
+    /// The eight-lane forward kinematics gives `fk_effector`'s bits, lane by lane.
+    #[test]
+    fn fk_effectors8_match_scalar_bit_for_bit() {
+        let rig = Rig::sloth();
+        let chains: [&LimbChain; 4] = std::array::from_fn(|i| &rig.chains()[i]);
+        let prepared = LimbChains4::new(chains);
+        let mut s = 0xf8_u64;
+        for _ in 0..3000 {
+            let roots: [RootTransform; 8] = std::array::from_fn(|_| root(&mut s));
+            let poses: [ChainPose; 8] = std::array::from_fn(|i| {
+                let u: [f32; 12] = std::array::from_fn(|_| rnd(&mut s));
+                chains[i % 4].sample_pose(&u)
+            });
+            let fk = prepared.fk_effectors8(&roots, &poses);
+            for i in 0..8 {
+                let want = chains[i % 4].fk_effector(roots[i], &poses[i]);
                 assert_eq!(
                     fk[i].to_array().map(f32::to_bits),
                     want.to_array().map(f32::to_bits)
