@@ -1085,9 +1085,9 @@ pub(super) fn fk_effectors(
     }
     let mut parent_pos = first_pos;
     let mut parent_rot = first_rest.mul(pose[0]);
-    for j in 1..CHAIN_JOINTS {
-        parent_pos = parent_pos.add(parent_rot.rotate(c.offsets[j]));
-        parent_rot = parent_rot.mul(c.rest[j]).mul(pose[j]);
+    for ((offset, rest), q) in c.offsets.iter().zip(&c.rest).zip(&pose).skip(1) {
+        parent_pos = parent_pos.add(parent_rot.rotate(*offset));
+        parent_rot = parent_rot.mul(*rest).mul(*q);
     }
     let local = parent_pos.add(parent_rot.rotate(c.effector));
     let rot = Q::gather(roots.map(|r| r.rotation));
