@@ -393,6 +393,18 @@ impl SolvePrep {
     }
 }
 
+impl AsMut<Sloth> for Sloth {
+    fn as_mut(&mut self) -> &mut Sloth {
+        self
+    }
+}
+
+impl AsMut<SolveMemo> for SolveMemo {
+    fn as_mut(&mut self) -> &mut SolveMemo {
+        self
+    }
+}
+
 /// Eight SIMD lanes' values: `a`'s in lanes 0..4, `b`'s in 4..8.
 fn lanes8<T: Copy>(a: [T; 4], b: [T; 4]) -> [T; 8] {
     std::array::from_fn(|i| if i < 4 { a[i] } else { b[i - 4] })
