@@ -19,7 +19,7 @@ pub use crowd::{CrowdGrid, HashedPoint};
 pub use path::{Adjacency, AxisPoint, axis_at, project};
 pub use rigdata::RigData;
 pub use sloth::{
-    Grip, LimbPhase, LimbState, Sloth, SolveMemo, SpawnHint, Status, TraceBatch, World,
+    BodyMemo, Grip, LimbPhase, LimbState, Sloth, SolveMemo, SpawnHint, Status, TraceBatch, World,
 };
 pub mod judge;
 pub mod stats;

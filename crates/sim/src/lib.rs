@@ -18,8 +18,8 @@ pub use crowd::{
 pub use scenario::{ScenarioResult, ScenarioSpec, TrunkVariant, run_scenario};
 pub use schedule::{SimSystems, StageTimings, build_schedule, init_compute_pool};
 pub use world::{
-    CcdMemo, CrowdNeighbours, Locomotion, SimClock, SlothId, SlothState, Traces, new_world,
-    spawn_sloth,
+    BodyAverageMemo, CcdMemo, CrowdNeighbours, Locomotion, SimClock, SlothId, SlothState, Traces,
+    new_world, spawn_sloth,
 };
 
 /// Writes `bytes` to a temporary file next to `path`, then renames it into

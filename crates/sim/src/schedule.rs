@@ -18,8 +18,8 @@ use bevy_tasks::{ComputeTaskPool, TaskPoolBuilder};
 use slothsim_gait::Sloth;
 
 use crate::world::{
-    CcdMemo, CrowdNeighbours, CrowdPoints, Locomotion, SimClock, SlothId, SlothState, Traces,
-    crowd_points,
+    BodyAverageMemo, CcdMemo, CrowdNeighbours, CrowdPoints, Locomotion, SimClock, SlothId,
+    SlothState, Traces, crowd_points,
 };
 
 /// The stages of one tick, in order.
@@ -110,7 +110,7 @@ fn step_search_stage(
 fn body_average_stage(
     loco: Res<Locomotion>,
     clock: Res<SimClock>,
-    mut q: Query<&mut SlothState>,
+    mut q: Query<(&mut SlothState, &mut BodyAverageMemo)>,
     mut timings: ResMut<StageTimings>,
 ) {
     let t = Instant::now();
@@ -118,7 +118,7 @@ fn body_average_stage(
     let dt = clock.dt;
     q.par_iter_mut()
         .batching_strategy(BATCHING)
-        .for_each(|mut s| s.0.body_average(&w, dt));
+        .for_each(|(mut s, mut m)| s.0.body_average_memo(&w, dt, &mut m.0));
     timings.last[2] = ms(t);
 }
 

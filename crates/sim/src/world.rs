@@ -2,8 +2,8 @@
 
 use bevy_ecs::prelude::*;
 use slothsim_gait::{
-    Adjacency, CrowdGrid, HashedPoint, LocomotionConfig, RigData, Sloth, SolveMemo, SpawnHint,
-    TraceBatch, World as LocoWorld,
+    Adjacency, BodyMemo, CrowdGrid, HashedPoint, LocomotionConfig, RigData, Sloth, SolveMemo,
+    SpawnHint, TraceBatch, World as LocoWorld,
 };
 use slothsim_rig::{CcdParams, Rig};
 use slothsim_scene::{SupportId, TraceScene};
@@ -14,13 +14,18 @@ pub struct SlothId(pub u32);
 
 /// A sloth's locomotion state.
 #[derive(Component, Clone, Debug)]
-#[require(CrowdPoints, CcdMemo)]
+#[require(CrowdPoints, CcdMemo, BodyAverageMemo)]
 pub struct SlothState(pub Sloth);
 
 /// What the CcdSolve stage keeps of a sloth's last solve, to skip the next one
 /// where it would change nothing ([`Sloth::solve_limbs_memo`]).
 #[derive(Component, Clone, Copy, Debug, Default)]
 pub struct CcdMemo(pub SolveMemo);
+
+/// What the BodyAverage stage keeps of a sloth's last update, to skip the
+/// next one where it would change nothing ([`Sloth::body_average_memo`]).
+#[derive(Component, Clone, Copy, Debug, Default)]
+pub struct BodyAverageMemo(pub BodyMemo);
 
 impl AsMut<Sloth> for SlothState {
     fn as_mut(&mut self) -> &mut Sloth {
