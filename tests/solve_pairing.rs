@@ -1,11 +1,13 @@
 //! CcdSolve solves the sloths of a batch two by two in eight SIMD lanes and
-//! skips the ones whose solve would change nothing (`Sloth::solve_limbs_batch`).
-//! Each sloth must end exactly as its own `Sloth::solve_limbs` leaves it, bit
-//! for bit: pairing and skipping are speed, never behaviour.
+//! skips the ones whose solve would change nothing (`Sloth::solve_limbs_batch`);
+//! BodyAverage skips the sloths whose update would change nothing
+//! (`Sloth::body_average_memo`). Each sloth must end exactly as the plain
+//! `Sloth::solve_limbs` / `Sloth::body_average` leave it, bit for bit: pairing
+//! and skipping are speed, never behaviour.
 
 use glam::Vec3;
 use slothsim::gait::sloth::Sloth;
-use slothsim::gait::{LimbPhase, LocomotionConfig, Profile, SolveMemo, SpawnHint};
+use slothsim::gait::{BodyMemo, LimbPhase, LocomotionConfig, Profile, SolveMemo, SpawnHint};
 use slothsim::rig::Rig;
 use slothsim::scene::{Preset, TraceScene};
 use slothsim::sim::{Locomotion, SlothState, new_world, spawn_sloth};
@@ -85,6 +87,59 @@ fn paired_and_skipped_solves_match_single_solves_bit_for_bit() {
                 let d = Vec3::new(rnd(), rnd(), rnd()) * 0.01;
                 a.body_pos += d;
                 b.body_pos += d;
+            }
+        }
+    }
+}
+
+#[test]
+fn skipped_body_updates_match_plain_updates_bit_for_bit() {
+    let preset = Preset::by_name("pole", None).unwrap();
+    let loco = Locomotion::new(
+        LocomotionConfig::profile(Profile::Free),
+        &Rig::sloth(),
+        TraceScene::new(preset.scene.clone()),
+    )
+    .unwrap();
+    let mut world = new_world(loco, 1.0 / 60.0);
+    let hint = SpawnHint {
+        support: preset.start.support,
+        position: preset.start.position,
+        forward: preset.start.forward,
+        body_side: preset.start.body_side,
+    };
+    let e = spawn_sloth(&mut world, 0, &hint, None);
+    let spawned = world.get::<SlothState>(e).unwrap().0;
+    let w = world.resource::<Locomotion>().view();
+    let dt = 1.0 / 60.0;
+    // Bodies turned and moved off their grips' average (the update eases the
+    // rotation back over several frames), some left as spawned.
+    let mut memo_sloths: Vec<Sloth> = (0..12)
+        .map(|k| {
+            let mut s = spawned;
+            let a = k as f32 * 0.07;
+            s.body_rot = glam::Quat::from_rotation_y(a) * s.body_rot;
+            s.body_pos += Vec3::new(a, -a, 0.5 * a) * 0.1;
+            s
+        })
+        .collect();
+    let mut plain = memo_sloths.clone();
+    let mut memos = vec![BodyMemo::default(); memo_sloths.len()];
+    let body_bits = |s: &Sloth| {
+        let mut v = s.body_pos.to_array().to_vec();
+        v.extend(s.body_rot.to_array());
+        v.extend(s.limbs.iter().flat_map(|l| l.target.to_array()));
+        v.into_iter().map(f32::to_bits).collect::<Vec<_>>()
+    };
+    for frame in 0..240 {
+        for (k, (a, b)) in memo_sloths.iter_mut().zip(&mut plain).enumerate() {
+            a.body_average_memo(&w, dt, &mut memos[k]);
+            b.body_average(&w, dt);
+            assert_eq!(body_bits(a), body_bits(b), "frame {frame}, sloth {k}");
+            // Now and then a grip moves (a step landed).
+            if (frame + k) % 97 == 0 {
+                a.limbs[k % 4].grip.point.x += 0.01;
+                b.limbs[k % 4].grip.point.x += 0.01;
             }
         }
     }
