@@ -92,7 +92,7 @@ const STANCE_MAX_PENETRATION: f32 = 0.005;
 const SWING_IK_TOLERANCE: f32 = 0.0035;
 
 /// Leg order: a hind grip stays this far behind every fore grip along the body (m).
-const LEG_ORDER_MARGIN: f32 = 0.05;
+const LEG_ORDER_MARGIN: f32 = 0.0;
 /// A branch → trunk transfer: how far a fore grip may lead the hind grips along the body (m).
 const MAX_TRANSFER_SPREAD: f32 = 0.55;
 /// A side's fore and hind grips stay this far apart along the body (m).
