@@ -433,13 +433,15 @@ fn search(
             hi = Some(n);
         }
     }
-    // Bracket above: double (up to 4× the largest measured size).
+    // Bracket above: double, up to 16× the largest measured size (at 4× a
+    // one-thread run of 1,000 sloths already reached the cap); a crowd that
+    // still fits there is reported as a lower bound.
     let cap = runs
         .iter()
         .map(|r| r.sloths)
         .max()
         .unwrap_or(1)
-        .saturating_mul(4);
+        .saturating_mul(16);
     while hi.is_none() {
         let l = lo.expect("bracketed below");
         let n = l.saturating_mul(2).min(cap);
