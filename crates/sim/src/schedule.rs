@@ -1,6 +1,7 @@
 //! The tick, in one place: five chained stages, each one system that runs its
 //! kernel over every sloth in parallel (`par_iter_mut` on bevy's compute task
-//! pool) and records its wall time.
+//! pool; CcdSolve takes whole table slices with `contiguous_par_iter_mut`, to
+//! solve sloths two by two in SIMD lanes) and records its wall time.
 //!
 //! Order differs from a naive reading of DESIGN.md in one place: BodyAverage
 //! runs *before* CcdSolve, so every limb is solved from the chain roots of the
