@@ -421,6 +421,36 @@ impl AsMut<SolveMemo> for SolveMemo {
     }
 }
 
+/// A memo key being written: `N` words of bits, filled in order.
+struct KeyBits<const N: usize> {
+    k: [u32; N],
+    at: usize,
+}
+
+impl<const N: usize> KeyBits<N> {
+    fn new() -> Self {
+        KeyBits { k: [0; N], at: 0 }
+    }
+
+    fn u32s(&mut self, v: &[u32]) {
+        self.k[self.at..self.at + v.len()].copy_from_slice(v);
+        self.at += v.len();
+    }
+
+    fn f32s(&mut self, v: &[f32]) {
+        for (d, x) in self.k[self.at..self.at + v.len()].iter_mut().zip(v) {
+            *d = x.to_bits();
+        }
+        self.at += v.len();
+    }
+
+    /// The key (every word written).
+    fn done(self) -> [u32; N] {
+        debug_assert_eq!(self.at, N);
+        self.k
+    }
+}
+
 /// Eight SIMD lanes' values: `a`'s in lanes 0..4, `b`'s in 4..8.
 fn lanes8<T: Copy>(a: [T; 4], b: [T; 4]) -> [T; 8] {
     std::array::from_fn(|i| if i < 4 { a[i] } else { b[i - 4] })
@@ -2323,34 +2353,32 @@ impl Sloth {
     /// The bits of every field [`Sloth::body_average`] reads or writes; `None`
     /// while a limb swings.
     fn body_key(&self) -> Option<BodyKey> {
-        if self.limbs.iter().any(|l| l.phase == LimbPhase::Swinging) {
+        if self.any_swinging() {
             return None;
         }
-        let mut k = [0u32; BODY_KEY_LEN];
-        let mut at = 0;
-        let mut put = |v: &[u32]| {
-            k[at..at + v.len()].copy_from_slice(v);
-            at += v.len();
-        };
-        let f = |v: Vec3| v.to_array().map(f32::to_bits);
-        put(&f(self.body_pos));
-        put(&self.body_rot.to_array().map(f32::to_bits));
+        let mut k = KeyBits::<BODY_KEY_LEN>::new();
+        k.f32s(&self.body_pos.to_array());
+        k.f32s(&self.body_rot.to_array());
         match self.transfer {
             Some(t) => {
-                put(&[1, t.to.0, t.trunk.0]);
-                put(&f(t.side));
-                put(&f(t.away));
+                k.u32s(&[1, t.to.0, t.trunk.0]);
+                k.f32s(&t.side.to_array());
+                k.f32s(&t.away.to_array());
             }
-            None => put(&[0; 9]),
+            None => k.u32s(&[0; 9]),
         }
         for l in &self.limbs {
-            put(&[l.phase as u32]);
-            put(&f(l.grip.point));
-            put(&[l.grip.support.0]);
-            put(&f(l.target));
+            k.u32s(&[l.phase as u32]);
+            k.f32s(&l.grip.point.to_array());
+            k.u32s(&[l.grip.support.0]);
+            k.f32s(&l.target.to_array());
         }
-        debug_assert_eq!(at, BODY_KEY_LEN);
-        Some(k)
+        Some(k.done())
+    }
+
+    /// Whether a limb is in the air.
+    fn any_swinging(&self) -> bool {
+        self.limbs.iter().any(|l| l.phase == LimbPhase::Swinging)
     }
 
     // ---------------------------------------------------------------- stage 4
@@ -2490,36 +2518,28 @@ impl Sloth {
     /// The bits of every field [`Sloth::solve_limbs`] reads or writes; `None`
     /// while a limb swings (its target moves every frame: never skipped).
     fn solve_key(&self) -> Option<SolveKey> {
-        if self.limbs.iter().any(|l| l.phase == LimbPhase::Swinging) {
+        if self.any_swinging() {
             return None;
         }
-        let mut k = [0u32; SOLVE_KEY_LEN];
-        let mut at = 0;
-        let mut put = |v: &[f32]| {
-            for (d, x) in k[at..at + v.len()].iter_mut().zip(v) {
-                *d = x.to_bits();
-            }
-            at += v.len();
-        };
-        put(&self.body_pos.to_array());
-        put(&self.body_rot.to_array());
+        let mut k = KeyBits::<SOLVE_KEY_LEN>::new();
+        k.f32s(&self.body_pos.to_array());
+        k.f32s(&self.body_rot.to_array());
         for l in &self.limbs {
-            put(&l.target.to_array());
+            k.f32s(&l.target.to_array());
             for q in l.pose.0 {
-                put(&q.to_array());
+                k.f32s(&q.to_array());
             }
             for v in [l.settled_ls, l.cold_miss_ls] {
                 match v {
-                    Some(t) => put(&[1.0, t.x, t.y, t.z]),
-                    None => put(&[0.0; 4]),
+                    Some(t) => k.f32s(&[1.0, t.x, t.y, t.z]),
+                    None => k.f32s(&[0.0; 4]),
                 }
             }
-            put(&[l.phase as u32 as f32]);
-            put(&l.root.to_array());
-            put(&l.effector.to_array());
+            k.f32s(&[l.phase as u32 as f32]);
+            k.f32s(&l.root.to_array());
+            k.f32s(&l.effector.to_array());
         }
-        debug_assert_eq!(at, SOLVE_KEY_LEN);
-        Some(k)
+        Some(k.done())
     }
 
     /// The mean of the planted limbs' claw → target vectors over those off
