@@ -5,9 +5,13 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, Result, bail};
 use clap::{Args, ValueEnum};
 use slothsim::gait::{LocomotionConfig, Profile, Tolerances};
+use slothsim::rig::Limb;
 use slothsim::rig::Rig;
 use slothsim::scene::{Preset, PresetKind};
-use slothsim::sim::{ScenarioResult, ScenarioSpec, TrunkVariant, run_scenario};
+use slothsim::sim::{
+    STEADY_AFTER_CYCLES, STEADY_BEFORE_STOP_CYCLES, ScenarioResult, ScenarioSpec, TrunkVariant,
+    run_scenario,
+};
 
 /// Gait profile names on the command line.
 #[derive(Clone, Copy, Debug, ValueEnum)]
@@ -195,9 +199,37 @@ fn print_result(r: &ScenarioResult) {
         r.gait.speed_mps_mean,
         r.gait.footfall_order.iter().take(8).collect::<Vec<_>>()
     );
+    print_limbs("whole run", &r.gait);
+    match &r.gait_steady {
+        Some(st) => print_limbs(
+            &format!(
+                "steady state {:.1}–{:.1} s, {:.3} m/s",
+                st.from_s, st.to_s, st.gait.speed_mps_mean
+            ),
+            &st.gait,
+        ),
+        None => println!(
+            "  steady state: none (the run is shorter than {STEADY_AFTER_CYCLES} + {STEADY_BEFORE_STOP_CYCLES} + 1 gait cycles)"
+        ),
+    }
     for f in &r.verdict.failures {
         println!("  failed: {f}");
     }
+}
+
+/// One line of per-limb means: contact / swing (s), stride (m).
+fn print_limbs(label: &str, g: &slothsim::gait::GaitReport) {
+    let limbs = Limb::ALL.map(|limb| {
+        let l = g.limbs.get(limb);
+        format!(
+            "{} {:.2}/{:.2} s {:.3} m",
+            limb.name(),
+            l.contact_s_mean,
+            l.swing_s_mean,
+            l.stride_m_mean
+        )
+    });
+    println!("  {label}: contact/swing, stride: {}", limbs.join(", "));
 }
 
 /// The goal point as run (variants may swap start and goal; a goal with a

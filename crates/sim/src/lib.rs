@@ -15,7 +15,10 @@ pub use crowd::{
     CheckpointInfo, Crowd, CrowdError, CrowdSpec, CrowdStats, ForestSource, Percentiles, StagesMs,
     WorstSloths, forest_for, scene_hash, state_hash_of,
 };
-pub use scenario::{ScenarioResult, ScenarioSpec, TrunkVariant, run_scenario};
+pub use scenario::{
+    STEADY_AFTER_CYCLES, STEADY_BEFORE_STOP_CYCLES, ScenarioResult, ScenarioSpec, SteadyGait,
+    TrunkVariant, run_scenario, steady_gait,
+};
 pub use schedule::{SimSystems, StageTimings, build_schedule, init_compute_pool};
 pub use world::{
     BodyAverageMemo, CcdMemo, CrowdNeighbours, Locomotion, SimClock, SlothId, SlothState, Traces,

@@ -124,6 +124,14 @@ pub struct ScenarioResult {
     pub judge: JudgeReport,
     /// Gait statistics.
     pub gait: GaitReport,
+    /// Gait statistics of the steady state (SPEC's steady-state rows are
+    /// strides at constant speed): the frames from [`STEADY_AFTER_CYCLES`]
+    /// gait cycles after setting off (the first steps start from the spawn
+    /// stance's spacing and are short) until [`STEADY_BEFORE_STOP_CYCLES`]
+    /// before the sloth stopped at its goal (its last steps toward the goal
+    /// are short), or the end of the run. `None` when that window is shorter
+    /// than one gait cycle.
+    pub gait_steady: Option<SteadyGait>,
     /// Time limit used.
     pub time_limit_s: f32,
     /// Frames simulated.
@@ -143,6 +151,49 @@ pub struct ScenarioResult {
     /// Per-frame stage times (ms), as in [`crate::StageTimings::history`].
     #[serde(skip)]
     pub stage_ms: Vec<[f64; 5]>,
+}
+
+/// The steady state's window starts this many gait cycles after the first frame…
+pub const STEADY_AFTER_CYCLES: f32 = 2.0;
+/// …and ends this many before the sloth stopped (its goal), if it did.
+pub const STEADY_BEFORE_STOP_CYCLES: f32 = 1.0;
+
+/// [`GaitReport`] over the steady-state window `[from_s, to_s]`.
+#[derive(Clone, Debug, Serialize)]
+pub struct SteadyGait {
+    /// Window start (s).
+    pub from_s: f32,
+    /// Window end (s): a cycle before the sloth stopped, or the run's end.
+    pub to_s: f32,
+    /// The statistics over the window's frames.
+    #[serde(flatten)]
+    pub gait: GaitReport,
+}
+
+/// Gait statistics over the observations from `after_cycles` gait cycles
+/// after the first until `until_s`; `None` if that is shorter than a cycle.
+pub fn steady_gait(
+    observations: &[SlothObservation],
+    cycle_s: f32,
+    after_cycles: f32,
+    until_s: f32,
+) -> Option<SteadyGait> {
+    let from_s = observations.first()?.time_s + after_cycles * cycle_s;
+    if until_s - from_s < cycle_s {
+        return None;
+    }
+    let mut stats = GaitStats::new();
+    for obs in observations
+        .iter()
+        .filter(|o| (from_s..=until_s).contains(&o.time_s))
+    {
+        stats.observe(obs);
+    }
+    Some(SteadyGait {
+        from_s,
+        to_s: until_s,
+        gait: stats.finish(),
+    })
 }
 
 /// Runs one scenario to the goal, a stop, or the time limit.
@@ -192,6 +243,7 @@ pub fn run_scenario(
     let mut frames = 0;
     let mut sloths = world.query::<(&SlothState, &Traces)>();
     let mut after_stop = 0;
+    let mut stopped_s = None;
     let mut poses = Vec::new();
     let mut last_search = None;
     let pose_every = ((POSE_EVERY_S / spec.dt).round() as u64).max(1);
@@ -217,9 +269,11 @@ pub fn run_scenario(
         if frames % ((0.5 / spec.dt).round() as u64).max(1) == 0 {
             trail.push(obs.body_pos);
         }
+        let obs_time = obs.time_s;
         observations.push(obs);
         status = s.status;
         if status != Status::Moving {
+            stopped_s.get_or_insert(obs_time);
             // Let the last swing settle, then stop.
             after_stop += 1;
             if after_stop as f32 * spec.dt > 1.0 {
@@ -239,6 +293,14 @@ pub fn run_scenario(
     let loco = world.resource::<Locomotion>();
     let traces = last_search.map_or_else(Vec::new, |b| trace_lines(&b, loco));
     let stage_ms = world.resource::<crate::StageTimings>().history.clone();
+    // A sloth that stopped (at its goal) shortened its last steps toward it.
+    let cycle_s = spec.cfg.cycle_duration();
+    let until_s = match stopped_s {
+        Some(t) => Some(t - STEADY_BEFORE_STOP_CYCLES * cycle_s),
+        None => observations.last().map(|o| o.time_s),
+    };
+    let gait_steady = until_s
+        .and_then(|until_s| steady_gait(&observations, cycle_s, STEADY_AFTER_CYCLES, until_s));
     let report = judge.finish();
     let verdict = report.verdict(judge.tolerances());
     Ok(ScenarioResult {
@@ -249,6 +311,7 @@ pub fn run_scenario(
         status,
         judge: report,
         gait: stats.finish(),
+        gait_steady,
         time_limit_s,
         frames,
         trail,
