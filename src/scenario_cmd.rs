@@ -209,7 +209,7 @@ fn print_result(r: &ScenarioResult) {
             &st.gait,
         ),
         None => println!(
-            "  steady state: none (the run is shorter than {STEADY_AFTER_CYCLES} + {STEADY_BEFORE_STOP_CYCLES} + 1 gait cycles)"
+            "  steady state: none (from {STEADY_AFTER_CYCLES} gait cycles after the start to {STEADY_BEFORE_STOP_CYCLES} before the stop is under one cycle)"
         ),
     }
     for f in &r.verdict.failures {
