@@ -3,12 +3,13 @@
 //! points only), the CCD stage moves the body by the planted limbs' residual
 //! and solves again, so every planted claw stays on its grip.
 
+mod common;
+
 use glam::Vec3;
+use slothsim::gait::LimbPhase;
 use slothsim::gait::sloth::Sloth;
-use slothsim::gait::{LimbPhase, LocomotionConfig, Profile, SpawnHint};
-use slothsim::rig::{CcdParams, ChainPose, Rig, solve};
-use slothsim::scene::{Preset, TraceScene};
-use slothsim::sim::{Locomotion, SlothState, new_world, spawn_sloth};
+use slothsim::rig::{CcdParams, ChainPose, solve};
+use slothsim::sim::Locomotion;
 
 /// Largest planted claw ↔ target distance.
 fn planted_error(s: &Sloth) -> f32 {
@@ -21,22 +22,7 @@ fn planted_error(s: &Sloth) -> f32 {
 
 #[test]
 fn a_body_placed_off_its_grips_is_moved_until_the_planted_claws_hold() {
-    let preset = Preset::by_name("pole", None).unwrap();
-    let loco = Locomotion::new(
-        LocomotionConfig::profile(Profile::Free),
-        &Rig::sloth(),
-        TraceScene::new(preset.scene.clone()),
-    )
-    .unwrap();
-    let mut world = new_world(loco, 1.0 / 60.0);
-    let hint = SpawnHint {
-        support: preset.start.support,
-        position: preset.start.position,
-        forward: preset.start.forward,
-        body_side: preset.start.body_side,
-    };
-    let e = spawn_sloth(&mut world, 0, &hint, None);
-    let spawned = world.get::<SlothState>(e).unwrap().0;
+    let (world, spawned) = common::pole_sloth();
     let w = world.resource::<Locomotion>().view();
     assert!(planted_error(&spawned) <= 0.0015);
     let mut tested = 0;

@@ -5,13 +5,12 @@
 //! `Sloth::solve_limbs` / `Sloth::body_average` leave it, bit for bit: pairing
 //! and skipping are speed, never behaviour.
 
-use bevy_ecs::world::World;
+mod common;
+
 use glam::Vec3;
 use slothsim::gait::sloth::Sloth;
-use slothsim::gait::{BodyMemo, LimbPhase, LocomotionConfig, Profile, SolveMemo, SpawnHint};
-use slothsim::rig::Rig;
-use slothsim::scene::{Preset, TraceScene};
-use slothsim::sim::{Locomotion, SlothState, new_world, spawn_sloth};
+use slothsim::gait::{BodyMemo, LimbPhase, SolveMemo};
+use slothsim::sim::Locomotion;
 
 /// The bits of what a solve writes.
 fn bits(s: &Sloth) -> Vec<u32> {
@@ -27,30 +26,9 @@ fn bits(s: &Sloth) -> Vec<u32> {
     v.into_iter().map(f32::to_bits).collect()
 }
 
-/// A world holding the pole preset and one sloth spawned at its start.
-fn pole_sloth() -> (World, Sloth) {
-    let preset = Preset::by_name("pole", None).unwrap();
-    let loco = Locomotion::new(
-        LocomotionConfig::profile(Profile::Free),
-        &Rig::sloth(),
-        TraceScene::new(preset.scene.clone()),
-    )
-    .unwrap();
-    let mut world = new_world(loco, 1.0 / 60.0);
-    let hint = SpawnHint {
-        support: preset.start.support,
-        position: preset.start.position,
-        forward: preset.start.forward,
-        body_side: preset.start.body_side,
-    };
-    let e = spawn_sloth(&mut world, 0, &hint, None);
-    let spawned = world.get::<SlothState>(e).unwrap().0;
-    (world, spawned)
-}
-
 #[test]
 fn paired_and_skipped_solves_match_single_solves_bit_for_bit() {
-    let (world, spawned) = pole_sloth();
+    let (world, spawned) = common::pole_sloth();
     let w = world.resource::<Locomotion>().view();
     // Sloths whose bodies sit off their grips by up to 8 cm (some claws out
     // of reach: resumed and cold solves, the body pulled back), one limb
@@ -101,7 +79,7 @@ fn paired_and_skipped_solves_match_single_solves_bit_for_bit() {
 
 #[test]
 fn skipped_body_updates_match_plain_updates_bit_for_bit() {
-    let (world, spawned) = pole_sloth();
+    let (world, spawned) = common::pole_sloth();
     let w = world.resource::<Locomotion>().view();
     let dt = 1.0 / 60.0;
     // Bodies turned and moved off their grips' average (the update eases the

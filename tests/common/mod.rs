@@ -1,0 +1,32 @@
+//! Set-up shared by the integration tests.
+
+use bevy_ecs::world::World;
+use slothsim::gait::SpawnHint;
+use slothsim::gait::sloth::Sloth;
+use slothsim::gait::{LocomotionConfig, Profile};
+use slothsim::rig::Rig;
+use slothsim::scene::{Preset, TraceScene};
+use slothsim::sim::Locomotion;
+use slothsim::sim::{SlothState, new_world, spawn_sloth};
+
+/// A world holding the pole preset (free profile, 60 Hz) and one sloth
+/// spawned at its start, as spawned.
+pub fn pole_sloth() -> (World, Sloth) {
+    let preset = Preset::by_name("pole", None).unwrap();
+    let loco = Locomotion::new(
+        LocomotionConfig::profile(Profile::Free),
+        &Rig::sloth(),
+        TraceScene::new(preset.scene.clone()),
+    )
+    .unwrap();
+    let mut world = new_world(loco, 1.0 / 60.0);
+    let hint = SpawnHint {
+        support: preset.start.support,
+        position: preset.start.position,
+        forward: preset.start.forward,
+        body_side: preset.start.body_side,
+    };
+    let e = spawn_sloth(&mut world, 0, &hint, None);
+    let spawned = world.get::<SlothState>(e).unwrap().0;
+    (world, spawned)
+}
