@@ -1,5 +1,6 @@
 //! Set-up shared by the integration tests.
 
+use bevy_ecs::entity::Entity;
 use bevy_ecs::world::World;
 use slothsim::gait::SpawnHint;
 use slothsim::gait::sloth::Sloth;
@@ -11,10 +12,20 @@ use slothsim::sim::{SlothState, new_world, spawn_sloth};
 
 /// A world holding the pole preset (free profile, 60 Hz) and one sloth
 /// spawned at its start, as spawned.
+#[allow(dead_code)]
 pub fn pole_sloth() -> (World, Sloth) {
+    let (world, e) = pole_world(Profile::Free);
+    let spawned = world.get::<SlothState>(e).unwrap().0;
+    (world, spawned)
+}
+
+/// A world holding the pole preset (gait `profile`, 60 Hz) and the entity
+/// of one sloth spawned at its start, walking toward the pole's far end.
+#[allow(dead_code)]
+pub fn pole_world(profile: Profile) -> (World, Entity) {
     let preset = Preset::by_name("pole", None).unwrap();
     let loco = Locomotion::new(
-        LocomotionConfig::profile(Profile::Free),
+        LocomotionConfig::profile(profile),
         &Rig::sloth(),
         TraceScene::new(preset.scene.clone()),
     )
@@ -27,6 +38,5 @@ pub fn pole_sloth() -> (World, Sloth) {
         body_side: preset.start.body_side,
     };
     let e = spawn_sloth(&mut world, 0, &hint, None);
-    let spawned = world.get::<SlothState>(e).unwrap().0;
-    (world, spawned)
+    (world, e)
 }

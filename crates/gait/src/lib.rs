@@ -19,7 +19,8 @@ pub use crowd::{CrowdGrid, HashedPoint};
 pub use path::{Adjacency, AxisPoint, axis_at, project};
 pub use rigdata::RigData;
 pub use sloth::{
-    BodyMemo, Grip, LimbPhase, LimbState, Sloth, SolveMemo, SpawnHint, Status, TraceBatch, World,
+    BodyMemo, Fallback, Grip, LimbPhase, LimbState, Sloth, SolveMemo, SpawnHint, Status,
+    TraceBatch, World,
 };
 pub mod judge;
 pub mod stats;

@@ -281,6 +281,20 @@ pub struct LimbState {
     /// limb's solve last failed to beat its warm solve: not tried again within
     /// [`COLD_RETRY_MOVE`] of it (cleared when the limb swings).
     pub cold_miss_ls: Option<Vec3>,
+    /// A step this limb takes by a deadline unless its own search finds one
+    /// first: another limb's step was checked with this one lifting off on
+    /// the gait clock during its swing ([`Sloth::next_lift`]).
+    #[serde(default)]
+    pub fallback: Option<Fallback>,
+}
+
+/// A limb's committed step (see [`LimbState::fallback`]).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Fallback {
+    /// The grip it steps to (its checks passed there; not traced).
+    pub grip: Grip,
+    /// Simulated time by which the limb is in the air.
+    pub by_s: f32,
 }
 
 /// Why a sloth stopped.
@@ -561,6 +575,9 @@ pub struct Candidate {
     /// The hind pair's share of the offset back its checks passed with (see
     /// [`Sloth::pair_back_scale`]).
     pub back_scale: f32,
+    /// The limb its checks let lift off during the swing and that limb's
+    /// committed step ([`Sloth::next_lift`]); `None`: every other limb holds.
+    pub lift: Option<(u8, Grip)>,
 }
 
 /// Spawn description: a support, a point on its axis, travel direction and the body side.
@@ -667,8 +684,24 @@ fn search_ahead(w: &World<'_>, g: Grip) -> Search {
     }
 }
 
+/// A limb lifting off on the gait clock during another's swing is checked
+/// as holding its grip this long past its clock time (its own search may
+/// take a few frames) and as in the air from then on: the deadline of its
+/// committed step ([`Sloth::next_lift`]).
+const LIFT_MARGIN_S: f32 = 0.05;
+
+/// Stride of the search for a committed step ([`Sloth::fallback_step`]).
+const FALLBACK_STRIDE: f32 = 0.05;
+
+/// Reach checks the search for a committed step may make.
+const FALLBACK_MAX_CHECKS: u32 = 6;
+
 /// Swing progress points at which a step's transient stance is checked.
 const SWING_CHECKS: [f32; 3] = [0.3, 0.55, 0.8];
+
+/// Stances a step with a lift-off during its swing passes through (see
+/// [`Sloth::lift_reachable`]): both limbs' arc points and both ends.
+const MAX_STANCES: usize = 2 * (SWING_CHECKS.len() + 1) + 1;
 
 /// Stances a step check solves: the arc's points and the end.
 const STANCE_CHECKS: usize = SWING_CHECKS.len() + 1;
@@ -842,6 +875,7 @@ impl Sloth {
             due: false,
             settled_ls: None,
             cold_miss_ls: None,
+            fallback: None,
         }; 4];
         let len = s.length();
         for limb in Limb::ALL {
@@ -945,6 +979,12 @@ impl Sloth {
         sloth
     }
 
+    /// Whether all four limbs' grips are on support `sid`, a swinging limb's
+    /// being the one it swings to.
+    fn grips_only(&self, sid: SupportId) -> bool {
+        self.limbs.iter().all(|l| l.grip.support == sid)
+    }
+
     /// Whether all four limbs hold support `sid` (none swinging).
     fn holds_only(&self, sid: SupportId) -> bool {
         self.limbs
@@ -960,10 +1000,20 @@ impl Sloth {
     /// passes near the goal on a trunk), the body's straight distance to the
     /// goal point. `None` without a goal.
     fn goal_distance(&self, w: &World<'_>) -> Option<(f32, bool)> {
+        self.goal_distance_with(w, Self::holds_only)
+    }
+
+    /// [`Self::goal_distance`] with `on(self, goal support)` deciding
+    /// whether the goal's support is held.
+    fn goal_distance_with(
+        &self,
+        w: &World<'_>,
+        on: fn(&Self, SupportId) -> bool,
+    ) -> Option<(f32, bool)> {
         let (gs, gp) = self.goal?;
         let a = project(w.scene().support(gs), self.body_pos);
         let off_axis = self.body_pos - a.point;
-        if !(self.holds_only(gs) && off_axis.length() < 0.6) {
+        if !(on(self, gs) && off_axis.length() < 0.6) {
             return Some((self.body_pos.distance(gp), false));
         }
         let d = match self.goal_side {
@@ -1146,6 +1196,203 @@ impl Sloth {
         self.steps_reachable(w, &[(li, grip, normal)], support, 0.0)
     }
 
+    /// The limb that lifts off next on the gait clock, if it does so while
+    /// limb `li`, about to step, is still in the air, and when (seconds from
+    /// now, [`LIFT_MARGIN_S`] included). The steady profile's swings
+    /// overlap: a limb lifting off during a step's swing need not hold its
+    /// grip to the step's landing, provided it surely lifts off — the step
+    /// commits that limb's next step ([`Self::fallback_step`],
+    /// [`LimbState::fallback`]). Only for plain steps (no transfer), with
+    /// that limb planted and no step of its own committed, and every other
+    /// limb planted or landing before it lifts off, none due: no other limb
+    /// can lift off first.
+    fn next_lift(&self, w: &World<'_>, li: usize) -> Option<(usize, f32)> {
+        if self.transfer.is_some() {
+            return None;
+        }
+        let offsets = w.cfg.phase_offsets();
+        let cycle = w.cfg.cycle_duration();
+        let (lj, wait) = (0..4)
+            .filter(|&j| j != li)
+            .map(|j| (j, (offsets[j] - self.clock).rem_euclid(1.0) * cycle))
+            .min_by(|a, b| a.1.total_cmp(&b.1))?;
+        let start = wait + LIFT_MARGIN_S;
+        let a = &self.limbs[lj];
+        if start >= w.cfg.swing_duration(Limb::ALL[li])
+            || a.phase != LimbPhase::Planted
+            || a.due
+            || a.fallback.is_some()
+        {
+            return None;
+        }
+        let others_clear = (0..4).filter(|&k| k != li && k != lj).all(|k| {
+            let l = &self.limbs[k];
+            !l.due
+                && l.fallback.is_none()
+                && match l.phase {
+                    LimbPhase::Planted => true,
+                    LimbPhase::Searching => false,
+                    LimbPhase::Swinging => {
+                        (1.0 - l.swing_t) * w.cfg.swing_duration(Limb::ALL[k]) < wait
+                    }
+                }
+        });
+        others_clear.then_some((lj, start))
+    }
+
+    /// A step for limb `lj` to commit to once limb `li` holds `grip` (see
+    /// [`Self::next_lift`]): the farthest of a few candidates on its own
+    /// support, every [`FALLBACK_STRIDE`], that passes all of a step's checks
+    /// with the other limbs holding. Not traced: the grip is the support
+    /// model's surface point (as the hind pair's partner's).
+    fn fallback_step(
+        &self,
+        w: &World<'_>,
+        li: usize,
+        grip: Grip,
+        lj: usize,
+        checks: &mut u32,
+    ) -> Option<Grip> {
+        let mut next = *self;
+        next.limbs[li].grip = grip;
+        next.limbs[li].phase = LimbPhase::Planted;
+        next.limbs[li].target = grip.point;
+        let grips = next.limbs.map(|l| l.grip.point);
+        let offset = body_offset(w, next.trunk_weights(w));
+        (next.body_pos, next.body_rot) = next.body_for_targets(w, &grips, offset, BodySide::Body);
+        for k in 0..4 {
+            let root = w.rig.root_ws(k, next.body_pos, next.body_rot);
+            next.limbs[k].root = root.position.into();
+        }
+        let sr = next.own_search(w, lj);
+        if sr.support != self.limbs[lj].grip.support || sr.retreat {
+            return None;
+        }
+        let len = w.scene().support(sr.support).length();
+        let mut own_checks = 0;
+        let mut u = sr.next_u;
+        while (u - sr.last_u) * sr.sdir >= -1e-6 && own_checks < FALLBACK_MAX_CHECKS {
+            if (END_MARGIN..=len - END_MARGIN).contains(&u)
+                && let Some((_, c)) =
+                    next.candidate(w, lj, sr.support, u, sr.sdir, false, false, &mut own_checks)
+            {
+                *checks += own_checks;
+                return Some(Grip {
+                    point: c.point,
+                    normal: c.out,
+                    support: sr.support,
+                    u,
+                    sdir: sr.sdir,
+                });
+            }
+            u -= sr.sdir * FALLBACK_STRIDE;
+        }
+        *checks += own_checks;
+        None
+    }
+
+    /// [`Self::step_reachable`] for limb `li` stepping to `grip` while limb
+    /// `lj` lifts off `start_s` into the swing, toward its committed step
+    /// `to` ([`Self::next_lift`]): the stances at both swings' arc points
+    /// and landings and at that limb's lift-off, each limb holding its grip
+    /// until it lifts off and from when it lands.
+    #[allow(clippy::too_many_arguments)]
+    fn lift_reachable(
+        &self,
+        w: &World<'_>,
+        li: usize,
+        grip: Vec3,
+        normal: Vec3,
+        lj: usize,
+        to: Grip,
+        start_s: f32,
+    ) -> bool {
+        let dur_i = w.cfg.swing_duration(Limb::ALL[li]);
+        let dur_j = w.cfg.swing_duration(Limb::ALL[lj]);
+        let n = SWING_CHECKS.len();
+        let mut times = [0.0f32; MAX_STANCES];
+        for (k, &t) in SWING_CHECKS.iter().enumerate() {
+            times[k] = t * dur_i;
+            times[n + 1 + k] = start_s + t * dur_j;
+        }
+        times[n] = dur_i;
+        // The last moment it holds (the body is farthest from its grip).
+        times[2 * n + 1] = start_s;
+        times[MAX_STANCES - 1] = start_s + dur_j;
+        times.sort_by(f32::total_cmp);
+        let offset = body_offset(w, self.trunk_weights(w));
+        let down = self.body_rot * Vec3::NEG_Y;
+        let cur = self.limbs.map(|l| (l.grip.point, l.grip.normal));
+        let swings = [
+            (li, (grip, normal), 0.0, dur_i),
+            (lj, (to.point, to.normal), start_s, dur_j),
+        ];
+        let stances: [StanceCheck; MAX_STANCES] = std::array::from_fn(|k| {
+            let tau = times[k];
+            let mut grips = cur.map(|(p, _)| p);
+            let mut tol = [HOLD_IK_TOLERANCE; 4];
+            for &(l, (p, nrm), s0, dur) in &swings {
+                let progress = (tau - s0) / dur;
+                if progress >= 1.0 {
+                    grips[l] = p;
+                    // Checked as closely as a landing at its own landing.
+                    if k == MAX_STANCES - 1 || tau == s0 + dur {
+                        tol[l] = STANCE_IK_TOLERANCE;
+                    }
+                } else if progress > 0.0 {
+                    grips[l] =
+                        swing_point(cur[l], (p, nrm), progress, w.cfg.swing_clearance_m, down);
+                    tol[l] = f32::INFINITY;
+                }
+            }
+            let (pos, rot) = self.body_for_targets(w, &grips, offset, BodySide::Body);
+            StanceCheck {
+                grips,
+                tol,
+                pos,
+                rot,
+                offset,
+                roots: std::array::from_fn(|i| w.rig.root_ws(i, pos, rot)),
+            }
+        });
+        self.stances_pass(w, &stances)
+    }
+
+    /// A plain step of limb `li` to `grip` that holds only with the limb
+    /// lifting off next in the air before it lands ([`Self::next_lift`]):
+    /// that limb and its committed step, if one passes with it.
+    fn planned_lift(
+        &self,
+        w: &World<'_>,
+        li: usize,
+        grip: Grip,
+        checks: &mut u32,
+    ) -> Option<(u8, Grip)> {
+        let (lj, start) = self.next_lift(w, li)?;
+        let to = self.fallback_step(w, li, grip, lj, checks)?;
+        *checks += 1;
+        self.lift_reachable(w, li, grip.point, grip.normal, lj, to, start)
+            .then_some((lj as u8, to))
+    }
+
+    /// Starts limb `li`'s swing to `grip` (its committed step, see
+    /// [`LimbState::fallback`]).
+    fn start_fallback_swing(&mut self, li: usize) {
+        let Some(fb) = self.limbs[li].fallback.take() else {
+            return;
+        };
+        let l = &mut self.limbs[li];
+        l.from = l.grip.point;
+        l.from_normal = l.grip.normal;
+        l.from_support = l.grip.support;
+        l.grip = fb.grip;
+        l.phase = LimbPhase::Swinging;
+        l.swing_t = 0.0;
+        l.due = false;
+        self.failed_searches = 0;
+        self.stalled_turns = 0;
+    }
+
     /// The hind pair's step onto a branch (`transfer_to_branch`): the largest
     /// share of the offset back (all, half, none) with which every stance of
     /// the step holds, if any. The thesis' Offset Back is a visual offset of
@@ -1240,6 +1487,14 @@ impl Sloth {
         {
             return false;
         }
+        self.stances_pass(w, &stances)
+    }
+
+    /// The checks every stance of a step passes: each planted limb's root
+    /// within its reach band of its grip, the body clear of the supports
+    /// near the grips, and every limb with a finite tolerance reaching its
+    /// target ([`Self::stances_hold`]). The last stance is the step's end.
+    fn stances_pass(&self, w: &World<'_>, stances: &[StanceCheck]) -> bool {
         let max = w.rig.reach * w.cfg.max_reach_fraction;
         let min = w.rig.reach * MIN_REACH_FRACTION;
         let in_band = stances.iter().all(|st| {
@@ -1262,7 +1517,7 @@ impl Sloth {
                     self.body_penetrates(w, pos, rot)
                 })
         };
-        in_band && !stances.iter().any(penetrates) && self.stances_hold(w, &stances)
+        in_band && !stances.iter().any(penetrates) && self.stances_hold(w, stances)
     }
 
     /// The CCD part of [`Self::step_reachable`]: every limb with a finite
@@ -1273,15 +1528,16 @@ impl Sloth {
     /// often (the search tries the farthest candidates first); it is solved
     /// with the first arc point (nearly every call that gets this far checks
     /// all of them).
-    fn stances_hold(&self, w: &World<'_>, stances: &[StanceCheck; STANCE_CHECKS]) -> bool {
+    fn stances_hold(&self, w: &World<'_>, stances: &[StanceCheck]) -> bool {
         let base = CcdParams {
             max_iterations: CHECK_MAX_ITERATIONS,
             ..*w.ccd
         };
         let params = check_params(&base);
         // The end stance (the last), then the arc's points in order.
-        let order: [usize; STANCE_CHECKS] =
-            std::array::from_fn(|k| (k + STANCE_CHECKS - 1) % STANCE_CHECKS);
+        let n = stances.len();
+        let order: [usize; MAX_STANCES] = std::array::from_fn(|k| (k + n - 1) % n);
+        let order = &order[..n];
         let holds = |st: &StanceCheck, poses: &mut [ChainPose], r: &[CcdResult]| {
             (0..4).all(|i| {
                 // An infinite tolerance: the stepping limb is in the air.
@@ -1398,6 +1654,14 @@ impl Sloth {
                 continue;
             }
             let mut back_scale = m.back_scale;
+            // A step checked with the next limb lifting off during its swing
+            // commits that limb's step: it must still be the next to lift.
+            let mut lift = m.lift.map(|(lj, to)| (lj as usize, to));
+            let lift_at = lift.and_then(|(lj, _)| {
+                self.next_lift(w, li)
+                    .filter(|&(k, _)| k == lj)
+                    .map(|(_, start)| start)
+            });
             if !as_checked {
                 let reachable = match pair {
                     Some((pi, p, n)) => {
@@ -1413,11 +1677,22 @@ impl Sloth {
                             None => false,
                         }
                     }
-                    None => self.step_reachable(w, li, hit.point, hit.normal, m.support),
+                    None => {
+                        if self.step_reachable(w, li, hit.point, hit.normal, m.support) {
+                            lift = None;
+                            true
+                        } else {
+                            matches!((lift, lift_at), (Some((lj, to)), Some(start))
+                                if self.lift_reachable(w, li, hit.point, hit.normal, lj, to, start))
+                        }
+                    }
                 };
                 if !reachable {
                     continue;
                 }
+            }
+            if lift.is_some() && lift_at.is_none() {
+                continue;
             }
             let grip = Grip {
                 point: hit.point,
@@ -1448,10 +1723,18 @@ impl Sloth {
                 l.grip = g;
                 l.phase = LimbPhase::Swinging;
                 l.swing_t = 0.0;
+                // Its own search found a step: a committed one is void.
+                l.fallback = None;
                 if lj != li {
                     // The partner's own turn is taken by this step.
                     l.due = false;
                 }
+            }
+            if let (Some((lj, to)), Some(start)) = (lift, lift_at) {
+                self.limbs[lj].fallback = Some(Fallback {
+                    grip: to,
+                    by_s: self.time + start,
+                });
             }
             if pair.is_some() {
                 self.hind_back_scale = back_scale;
@@ -1498,8 +1781,9 @@ impl Sloth {
                 if !in_range(cand_u) {
                     continue;
                 }
-                let mut check =
-                    |u: f32| self.candidate(w, li, sr.support, u, sr.sdir, sr.retreat, &mut checks);
+                let mut check = |u: f32| {
+                    self.candidate(w, li, sr.support, u, sr.sdir, sr.retreat, true, &mut checks)
+                };
                 let Some(mut found) = check(cand_u) else {
                     continue;
                 };
@@ -1534,6 +1818,11 @@ impl Sloth {
                 continue;
             }
             // This support is exhausted: try the next neighbour, then a retreat.
+            // Nothing better than a committed step: take it.
+            if self.limbs[li].fallback.is_some() {
+                self.start_fallback_swing(li);
+                return;
+            }
             if !self.next_neighbour(w, li) && !self.start_retreat(w, li) {
                 // Nothing anywhere: stay planted.
                 let l = &mut self.limbs[li];
@@ -2012,7 +2301,7 @@ impl Sloth {
             while (u - sr.last_u) * sr.sdir >= -1e-6 {
                 if (END_MARGIN..=len - END_MARGIN).contains(&u)
                     && self
-                        .candidate(w, li, sr.support, u, sr.sdir, false, &mut 0)
+                        .candidate(w, li, sr.support, u, sr.sdir, false, false, &mut 0)
                         .is_some()
                 {
                     return true;
@@ -2075,6 +2364,7 @@ impl Sloth {
         u: f32,
         sdir: f32,
         retreat: bool,
+        relax: bool,
         checks: &mut u32,
     ) -> Option<(TraceRequest, Candidate)> {
         let limb = Limb::ALL[li];
@@ -2150,6 +2440,13 @@ impl Sloth {
             (pi, a.point + out2 * a.radius, out2)
         });
         if pair.is_some_and(|(pi, p2, _)| p2.distance(self.limbs[pi].grip.point) > max_step) {
+            return None;
+        }
+        // The hind pair lifts off together only while both fore limbs hold:
+        // two limbs stay in contact.
+        if pair.is_some_and(|(pi, ..)| {
+            (0..4).any(|k| k != li && k != pi && self.limbs[k].phase == LimbPhase::Swinging)
+        }) {
             return None;
         }
         // Leg order: hind never ahead of a fore limb; never behind the opposite limb of the girdle.
@@ -2262,7 +2559,26 @@ impl Sloth {
             }
             None => self.step_reachable(w, li, approx, out, sid),
         };
-        if !reachable {
+        // Held only with the next limb to lift off in the air by the
+        // landing: a plain step commits that limb's step.
+        let plain = pair.is_none()
+            && !transfer_step
+            && !retreat
+            && side_step.is_none()
+            && sid == self.limbs[li].grip.support;
+        let lift = if !reachable && relax && plain {
+            let grip = Grip {
+                point: approx,
+                normal: out,
+                support: sid,
+                u,
+                sdir,
+            };
+            self.planned_lift(w, li, grip, checks)
+        } else {
+            None
+        };
+        if !reachable && lift.is_none() {
             return None;
         }
         let origin = a.point + out * (a.radius + TRACE_STANDOFF);
@@ -2282,6 +2598,7 @@ impl Sloth {
                 point: approx,
                 pair: pair.map(|(pi, p2, out2)| (pi as u8, p2, out2)),
                 back_scale,
+                lift,
             },
         ))
     }
@@ -2701,6 +3018,16 @@ impl Sloth {
     /// turn has come start searching (their first traces go into `batch`).
     pub fn transitions(&mut self, w: &World<'_>, dt: f32, batch: &mut TraceBatch) {
         self.time += dt;
+        // Committed steps lift off by their deadline (in the last frame
+        // before it), whatever else the sloth does: another limb's swing was
+        // checked with them in the air from then on.
+        for li in 0..4 {
+            if self.limbs[li].fallback.is_some_and(|fb| {
+                self.time + dt > fb.by_s && self.limbs[li].phase != LimbPhase::Swinging
+            }) {
+                self.start_fallback_swing(li);
+            }
+        }
         if let Some((d, true)) = self.goal_distance(w)
             && d <= self.goal_tolerance
         {
@@ -2718,6 +3045,14 @@ impl Sloth {
             return;
         }
         self.finish_transfer(w);
+        // At the goal with a limb still swinging (the steady profile's
+        // swings overlap, so a moment with all four planted may never come
+        // while walking): no limb lifts off until the swings end; then the
+        // sloth has arrived, or walks on if the last landing took it out of
+        // the goal's tolerance.
+        let arriving = self
+            .goal_distance_with(w, Self::grips_only)
+            .is_some_and(|(d, on)| on && d <= self.goal_tolerance);
         let prev = self.clock;
         self.clock = (self.clock + dt / w.cfg.cycle_duration()).fract();
         let offsets = w.cfg.phase_offsets();
@@ -2738,7 +3073,7 @@ impl Sloth {
                 .filter(|l| l.phase != LimbPhase::Swinging)
                 .count();
             let l = self.limbs[li];
-            if !l.due || l.phase != LimbPhase::Planted || planted < 3 {
+            if !l.due || l.phase != LimbPhase::Planted || planted < 3 || arriving {
                 continue;
             }
             self.limbs[li].due = false;

@@ -227,6 +227,9 @@ pub struct GaitStats {
     path_length_m: f64,
     footfalls: [Limb; FOOTFALL_CAPACITY],
     footfall_len: usize,
+    /// The limbs' phases are being followed (false until the first frame:
+    /// then they are only recorded).
+    limbs_tracked: bool,
 }
 
 impl Default for GaitStats {
@@ -248,7 +251,25 @@ impl GaitStats {
             path_length_m: 0.0,
             footfalls: [Limb::RH; FOOTFALL_CAPACITY],
             footfall_len: 0,
+            limbs_tracked: false,
         }
+    }
+
+    /// Statistics from the next frame on, following the limbs from where
+    /// these left them: a stance, swing or stride that ends later counts
+    /// whole though it began before (a window of a run counts the strides
+    /// whose footfalls are in it, the first one included). Time, path and
+    /// footfall order start afresh.
+    pub fn restarted(&self) -> GaitStats {
+        let mut next = GaitStats::new();
+        for (n, t) in next.limbs.iter_mut().zip(&self.limbs) {
+            n.planted = t.planted;
+            n.last_footfall_ws = t.last_footfall_ws;
+            n.phase_start_s = t.phase_start_s;
+            n.last_stance_s = t.last_stance_s;
+        }
+        next.limbs_tracked = self.limbs_tracked;
+        next
     }
 
     /// Takes one frame into account. Constant time, no allocation.
@@ -258,10 +279,11 @@ impl GaitStats {
             return;
         }
         let t = obs.time_s;
-        let first = self.first_time_s.is_none();
-        if first {
+        if self.first_time_s.is_none() {
             self.first_time_s = Some(t);
         }
+        let first = !self.limbs_tracked;
+        self.limbs_tracked = true;
         self.frames += 1;
         self.last_time_s = t;
         if let Some(prev) = self.last_body_pos {
@@ -838,6 +860,39 @@ mod tests {
         // Two diagonal cycles with one lateral window at the start.
         let order = [RH, RF, LH, LF, LH, RF, RH, LF, LH, RF, RH, LF, LH];
         assert_eq!(dominant_sequence(&order), Some(DIAGONAL_SEQUENCE));
+    }
+
+    #[test]
+    fn restarted_stats_count_the_strides_ending_after_the_restart() {
+        let walk = Walk::dsdc();
+        // Split mid-cycle, with some limb in the air.
+        let split = 12 + walk.cycle_frames * 4 + walk.swing_frames / 2;
+        let before = stats_of((1..=split).map(|f| walk.observation(f)));
+        assert!((0..4).any(|i| !before.limbs[i].planted));
+        let after = (split + 1..=walk.frames).map(|f| walk.observation(f));
+        let mut continued = before.restarted();
+        let mut fresh = GaitStats::new();
+        for o in after {
+            continued.observe(&o);
+            fresh.observe(&o);
+        }
+        let (continued, fresh) = (continued.finish(), fresh.finish());
+        for limb in Limb::ALL {
+            let (c, f) = (continued.limbs.get(limb), fresh.limbs.get(limb));
+            // Every touch-down after the split ends a counted stride.
+            assert_eq!(c.strides, c.touch_downs, "{}: {c:?}", limb.name());
+            assert!(c.strides >= f.strides);
+            assert!((c.stride_m_mean - walk.stride_m()).abs() <= walk.speed_mps * DT);
+            assert!((c.swing_s_mean - walk.swing_s()).abs() <= DT);
+        }
+        // A limb in the air at the split: its first footfall after it is a
+        // stride only when the limbs are followed across the split.
+        assert!(
+            Limb::ALL
+                .iter()
+                .any(|&l| { continued.limbs.get(l).strides > fresh.limbs.get(l).strides })
+        );
+        assert_eq!(continued.frames, (walk.frames - split) as u64);
     }
 
     #[test]

@@ -182,7 +182,13 @@ pub fn steady_gait(
     if until_s - from_s < cycle_s {
         return None;
     }
-    let mut stats = GaitStats::new();
+    // The frames before the window only follow the limbs, so the strides
+    // and phases ending in it count whole.
+    let mut before = GaitStats::new();
+    for obs in observations.iter().take_while(|o| o.time_s < from_s) {
+        before.observe(obs);
+    }
+    let mut stats = before.restarted();
     for obs in observations
         .iter()
         .filter(|o| (from_s..=until_s).contains(&o.time_s))
