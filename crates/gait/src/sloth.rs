@@ -1375,7 +1375,7 @@ impl Sloth {
             .then_some((lj as u8, to))
     }
 
-    /// Starts limb `li`'s swing to `grip` (its committed step, see
+    /// Starts limb `li`'s swing to its committed step, if it has one (see
     /// [`LimbState::fallback`]).
     fn start_fallback_swing(&mut self, li: usize) {
         let Some(fb) = self.limbs[li].fallback.take() else {
