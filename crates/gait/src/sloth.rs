@@ -1253,17 +1253,7 @@ impl Sloth {
         lj: usize,
         checks: &mut u32,
     ) -> Option<Grip> {
-        let mut next = *self;
-        next.limbs[li].grip = grip;
-        next.limbs[li].phase = LimbPhase::Planted;
-        next.limbs[li].target = grip.point;
-        let grips = next.limbs.map(|l| l.grip.point);
-        let offset = body_offset(w, next.trunk_weights(w));
-        (next.body_pos, next.body_rot) = next.body_for_targets(w, &grips, offset, BodySide::Body);
-        for k in 0..4 {
-            let root = w.rig.root_ws(k, next.body_pos, next.body_rot);
-            next.limbs[k].root = root.position.into();
-        }
+        let next = self.after_steps(w, [(li, grip)]);
         let sr = next.own_search(w, lj);
         if sr.support != self.limbs[lj].grip.support || sr.retreat {
             return None;
@@ -1345,15 +1335,7 @@ impl Sloth {
                     tol[l] = f32::INFINITY;
                 }
             }
-            let (pos, rot) = self.body_for_targets(w, &grips, offset, BodySide::Body);
-            StanceCheck {
-                grips,
-                tol,
-                pos,
-                rot,
-                offset,
-                roots: std::array::from_fn(|i| w.rig.root_ws(i, pos, rot)),
-            }
+            self.stance_check(w, grips, tol, offset)
         });
         self.stances_pass(w, &stances)
     }
@@ -1460,15 +1442,7 @@ impl Sloth {
             }
             let mut offset = body_offset(w, weights);
             offset.hind_back_m = offset_back;
-            let (pos, rot) = self.body_for_targets(w, &grips, offset, BodySide::Body);
-            StanceCheck {
-                grips,
-                tol,
-                pos,
-                rot,
-                offset,
-                roots: std::array::from_fn(|i| w.rig.root_ws(i, pos, rot)),
-            }
+            self.stance_check(w, grips, tol, offset)
         };
         let stances: [StanceCheck; STANCE_CHECKS] =
             std::array::from_fn(|k| stance_at(SWING_CHECKS.get(k).copied()));
@@ -1488,6 +1462,26 @@ impl Sloth {
             return false;
         }
         self.stances_pass(w, &stances)
+    }
+
+    /// The stance of IK targets `grips` (claws within `tol`) with the body
+    /// they imply.
+    fn stance_check(
+        &self,
+        w: &World<'_>,
+        grips: [Vec3; 4],
+        tol: [f32; 4],
+        offset: BodyOffset,
+    ) -> StanceCheck {
+        let (pos, rot) = self.body_for_targets(w, &grips, offset, BodySide::Body);
+        StanceCheck {
+            grips,
+            tol,
+            pos,
+            rot,
+            offset,
+            roots: std::array::from_fn(|i| w.rig.root_ws(i, pos, rot)),
+        }
     }
 
     /// The checks every stance of a step passes: each planted limb's root
@@ -2254,6 +2248,24 @@ impl Sloth {
         })
     }
 
+    /// This sloth once the given limbs hold the given grips: the body at
+    /// those grips (formulas 6, 7) and the chain roots it implies.
+    fn after_steps(&self, w: &World<'_>, steps: impl IntoIterator<Item = (usize, Grip)>) -> Sloth {
+        let mut next = *self;
+        for (lj, g) in steps {
+            next.limbs[lj].grip = g;
+            next.limbs[lj].target = g.point;
+        }
+        let grips = next.limbs.map(|l| l.grip.point);
+        let offset = body_offset(w, next.trunk_weights(w));
+        (next.body_pos, next.body_rot) = next.body_for_targets(w, &grips, offset, BodySide::Body);
+        for lj in 0..4 {
+            let root = w.rig.root_ws(lj, next.body_pos, next.body_rot);
+            next.limbs[lj].root = root.position.into();
+        }
+        next
+    }
+
     /// Lookahead: after limb `li` steps to `grip`, at least one other limb
     /// (tried in footfall order from the next) still has a step (cheap checks
     /// and reach, without traces). Keeps the greedy farthest-first search
@@ -2265,18 +2277,7 @@ impl Sloth {
         grip: Grip,
         pair: Option<(usize, Grip)>,
     ) -> bool {
-        let mut next = *self;
-        for (lj, g) in std::iter::once((li, grip)).chain(pair) {
-            next.limbs[lj].grip = g;
-            next.limbs[lj].target = g.point;
-        }
-        let grips = next.limbs.map(|l| l.grip.point);
-        let offset = body_offset(w, next.trunk_weights(w));
-        (next.body_pos, next.body_rot) = next.body_for_targets(w, &grips, offset, BodySide::Body);
-        for lj in 0..4 {
-            let root = w.rig.root_ws(lj, next.body_pos, next.body_rot);
-            next.limbs[lj].root = root.position.into();
-        }
+        let next = self.after_steps(w, std::iter::once((li, grip)).chain(pair));
         let offsets = w.cfg.phase_offsets();
         let mut order = [0usize, 1, 2, 3];
         order.sort_by(|&a, &b| {
