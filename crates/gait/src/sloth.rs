@@ -118,6 +118,24 @@ const TRANSFER_ROLL_POWER: f32 = 0.75;
 /// meeting the trunk from below at 135–140°; the stance checks reject any
 /// penetration a smaller lean would cause).
 const TRANSFER_AWAY: f32 = 0.15;
+/// On a branch by a trunk, the body hanging below the branch that would come
+/// within this distance of the trunk rolls about the branch toward its own
+/// side, all the way ([`HANG_MAX_ROLL`]) where it would touch the trunk (m).
+/// In the narrow fork under a branch that falls away from its trunk
+/// (trunk_branch at 135°–160°) the body has no room below the branch. 0.08
+/// and 0.12 lose one or two angles of the matrix's trunk_branch sweep.
+const HANG_CLEARANCE: f32 = 0.1;
+/// A body less than this far off its branch's vertical plane hangs in it
+/// (m): it rolls to the right of its heading (see `Sloth::keep_hang_side`).
+const HANG_SIDE_TIE: f32 = 0.01;
+/// The most the body rolls about a branch to clear a trunk: level with the
+/// branch, beside it (radians).
+const HANG_MAX_ROLL: f32 = std::f32::consts::FRAC_PI_2;
+/// The roll is full only with the body heading out from the trunk at least
+/// this steeply (cosine to the trunk's radial direction), none heading
+/// across or toward it: a body coming along a branch to its trunk keeps
+/// below it until the transfer turns it (see `transfer_to_trunk`).
+const HANG_OUT_COS: f32 = 0.5;
 /// A fore limb takes a trunk at least this far above the hind limbs' grips (head up).
 const HEAD_UP_MARGIN: f32 = 0.05;
 /// Wander mode: a branch → trunk change is taken walking at most this steeply
@@ -353,6 +371,11 @@ pub struct Sloth {
     /// The share of `offset_back_m` the hind pair's swing onto a branch
     /// uses (the most its stance checks allowed).
     pub hind_back_scale: f32,
+    /// The side the body is on (from the paws' mean), kept while it rolls
+    /// about a branch to clear a trunk (see [`Sloth::hang_up`]): the roll
+    /// goes that way. It is state, not read off the drawn body, so the step
+    /// checks roll a stance the way the drawn body will.
+    pub hang_side: Vec3,
     /// Wander mode, stopped (`NoGrip`): the time it tries again (the way
     /// may have been blocked by sloths that since moved on).
     pub resume_at: Option<f32>,
@@ -366,10 +389,10 @@ const SOLVE_KEY_LEN: usize = 7 + 4 * (3 + 16 + 4 + 4 + 1 + 3 + 3);
 /// The bits of the fields [`Sloth::solve_limbs`] reads or writes.
 type SolveKey = [u32; SOLVE_KEY_LEN];
 
-/// Words of a [`BodyKey`]: the body (position, rotation), the transfer
-/// (flag, supports, side, away), then per limb its phase, grip point and
-/// support, and target.
-const BODY_KEY_LEN: usize = 7 + 9 + 4 * 8;
+/// Words of a [`BodyKey`]: the body (position, rotation), the hang side,
+/// the transfer (flag, supports, side, away), then per limb its phase, grip
+/// point and support, and target.
+const BODY_KEY_LEN: usize = 7 + 3 + 9 + 4 * 8;
 
 /// The bits of the fields [`Sloth::body_average`] reads or writes while no
 /// limb swings.
@@ -916,6 +939,7 @@ impl Sloth {
             resume_at: None,
             transfer: None,
             hind_back_scale: 1.0,
+            hang_side: Vec3::ZERO,
         };
         // Settle the stance: a few rounds of (body from grips; each grip slid
         // along the support to where its limb reaches it best, searched in
@@ -973,6 +997,7 @@ impl Sloth {
         let (pos, rot) = sloth.averaged_body(w);
         sloth.body_pos = pos;
         sloth.body_rot = rot;
+        sloth.keep_hang_side(w);
         for _ in 0..4 {
             sloth.solve_limbs_with(w, &cold);
         }
@@ -1038,7 +1063,7 @@ impl Sloth {
         &self,
         w: &World<'_>,
         t: &[Vec3; 4],
-        trunk_share: f32,
+        offset: BodyOffset,
         side: BodySide,
     ) -> (Vec3, Vec3) {
         let (lf, rf, lh, rh) = (
@@ -1047,9 +1072,7 @@ impl Sloth {
             t[Limb::LH.index()],
             t[Limb::RH.index()],
         );
-        // Formula 6: average of the hind → fore directions of both sides.
-        let fwd = ((rf - rh).normalize_or_zero() + (lf - lh).normalize_or_zero())
-            .normalize_or(self.body_rot * Vec3::Z);
+        let fwd = self.formula6_fwd(t);
         let mean = (lf + rf + lh + rh) * 0.25;
         let s = w.scene().support(self.limbs[Limb::LF.index()].grip.support);
         let on_trunk = self.fore_on_trunk(w);
@@ -1057,8 +1080,9 @@ impl Sloth {
             // Rolled by a power of the share (the roll leads the limbs a
             // little), and pushed off the trunk mid-transfer so the body
             // clears it while the hind limbs are still on the branch.
-            let r = trunk_share.powf(TRANSFER_ROLL_POWER);
-            Vec3::Y * (1.0 - r) - tr.side * r - tr.away * (TRANSFER_AWAY * 4.0 * r * (1.0 - r))
+            let r = offset.trunk_share.powf(TRANSFER_ROLL_POWER);
+            let hang = self.hang_up(fwd, self.hang_roll(w, fwd, mean, offset.metres));
+            hang * (1.0 - r) - tr.side * r - tr.away * (TRANSFER_AWAY * 4.0 * r * (1.0 - r))
         } else if on_trunk {
             let a = project(s, mean);
             let body_side = match side {
@@ -1067,10 +1091,115 @@ impl Sloth {
             };
             -(body_side - fwd * fwd.dot(body_side)).normalize_or(self.body_rot * Vec3::Y * -1.0)
         } else {
-            Vec3::Y
+            // On branches: below them, clear of the trunks they meet.
+            self.hang_up(fwd, self.hang_roll(w, fwd, mean, offset.metres))
         };
         let up = (up - fwd * fwd.dot(up)).normalize_or(self.body_rot * Vec3::Y);
         (fwd, up)
+    }
+
+    /// Formula 6 for IK targets `t`: the average of the hind → fore
+    /// directions of both sides.
+    fn formula6_fwd(&self, t: &[Vec3; 4]) -> Vec3 {
+        let (lf, rf, lh, rh) = (
+            t[Limb::LF.index()],
+            t[Limb::RF.index()],
+            t[Limb::LH.index()],
+            t[Limb::RH.index()],
+        );
+        ((rf - rh).normalize_or_zero() + (lf - lh).normalize_or_zero())
+            .normalize_or(self.body_rot * Vec3::Z)
+    }
+
+    /// How far the body (heading `fwd`, paws' mean `mean`, `metres` below
+    /// it) rolls about its branch to clear a trunk, as a share of
+    /// [`HANG_MAX_ROLL`]: none walking a trunk; in a transfer, from its
+    /// trunk; else from the trunks next to the supports held (the most any
+    /// needs). Per trunk: none unless the body hanging below the branch
+    /// would come within [`HANG_CLEARANCE`] of it, all where it would touch
+    /// it, and only heading out from it ([`HANG_OUT_COS`]). Continuous in
+    /// the paws: the body never jumps between frames or stance checks.
+    fn hang_roll(&self, w: &World<'_>, fwd: Vec3, mean: Vec3, metres: f32) -> f32 {
+        let scene = w.scene();
+        let up0 = (Vec3::Y - fwd * fwd.dot(Vec3::Y)).normalize_or(Vec3::Y);
+        let pos = mean - up0 * metres;
+        let rot = rotation_from(fwd, up0);
+        let torso = [pos + rot * w.rig.torso_ms[0], pos + rot * w.rig.torso_ms[1]];
+        // The box the torso capsule grown by the clearance fills: a trunk's
+        // box apart from it is too far to matter (most trunks, most frames).
+        let grow = Vec3::splat(BODY_RADIUS + HANG_CLEARANCE);
+        let (lo, hi) = (torso[0].min(torso[1]) - grow, torso[0].max(torso[1]) + grow);
+        let roll = |trunk: SupportId| {
+            let (blo, bhi) = w.adjacency.bounds(trunk);
+            if blo.cmpgt(hi).any() || bhi.cmplt(lo).any() {
+                return 0.0;
+            }
+            let s = scene.support(trunk);
+            let depth =
+                torso_penetration(s, w.adjacency.segment_chunks(trunk), torso, -HANG_CLEARANCE);
+            if depth <= -HANG_CLEARANCE {
+                return 0.0;
+            }
+            let a = project(s, mean);
+            let radial = (mean - a.point) - a.tangent * a.tangent.dot(mean - a.point);
+            let heading_out = (fwd.dot(radial.normalize_or_zero()) / HANG_OUT_COS).clamp(0.0, 1.0);
+            heading_out * ((depth + HANG_CLEARANCE) / HANG_CLEARANCE).clamp(0.0, 1.0)
+        };
+        match self.transfer {
+            Some(tr) => roll(tr.trunk),
+            None if self.fore_on_trunk(w) => 0.0,
+            None => {
+                let held = self.limbs.map(|l| l.grip.support);
+                (0..4)
+                    .filter(|&k| !held[..k].contains(&held[k]))
+                    .flat_map(|k| w.adjacency.trunks_near(held[k]).iter().copied())
+                    .map(roll)
+                    .fold(0.0, f32::max)
+            }
+        }
+    }
+
+    /// At the start of a step search with no other limb in a step (and at
+    /// spawn), while the body does not roll about its branch
+    /// ([`Self::hang_roll`]): keeps the side of the branch it is on for the
+    /// next roll ([`Sloth::hang_side`]): across the heading, horizontal, the
+    /// way the body is off the branch's vertical plane (the right of the
+    /// heading when it hangs in it: a choice that holds while the heading
+    /// turns a little, unlike one read off the body's centimetres). The
+    /// step checks that follow and the drawn body roll the same way.
+    fn keep_hang_side(&mut self, w: &World<'_>) {
+        let t = self.targets();
+        let fwd = self.formula6_fwd(&t);
+        let mean = (t[0] + t[1] + t[2] + t[3]) * 0.25;
+        let metres = body_offset(w, self.trunk_weights(w)).metres;
+        if self.hang_roll(w, fwd, mean, metres) > 0.0 {
+            return;
+        }
+        let lateral = fwd.cross(Vec3::Y).normalize_or_zero();
+        self.hang_side = if lateral.dot(self.body_pos - mean) < -HANG_SIDE_TIE {
+            -lateral
+        } else {
+            lateral
+        };
+    }
+
+    /// The body's up on a branch heading `fwd`, rolled by share `roll` of
+    /// [`HANG_MAX_ROLL`] ([`Self::hang_roll`]) from world up about the
+    /// heading, toward the side of the branch the body is on
+    /// ([`Sloth::hang_side`]).
+    fn hang_up(&self, fwd: Vec3, roll: f32) -> Vec3 {
+        if roll == 0.0 {
+            return Vec3::Y;
+        }
+        // Turning up about the heading by -angle moves the body (below it)
+        // toward `lateral` (heading × up).
+        let lateral = fwd.cross(Vec3::Y);
+        let side = if lateral.dot(self.hang_side) >= 0.0 {
+            1.0
+        } else {
+            -1.0
+        };
+        Quat::from_axis_angle(fwd, -side * roll * HANG_MAX_ROLL) * Vec3::Y
     }
 
     /// Both fore limbs hold the same trunk (the body faces it).
@@ -1127,7 +1256,7 @@ impl Sloth {
         offset: BodyOffset,
         side: BodySide,
     ) -> (Vec3, Quat) {
-        let (f, up) = self.body_frame(w, t, offset.trunk_share, side);
+        let (f, up) = self.body_frame(w, t, offset, side);
         let mean = (t[0] + t[1] + t[2] + t[3]) * 0.25;
         let (pos, rot) = (mean - up * offset.metres, rotation_from(f, up));
         match self.transfer {
@@ -2392,8 +2521,13 @@ impl Sloth {
         let cur = self.limbs[li].grip.point;
         // On the trunk being transferred to, steps go up its axis (head up)
         // whichever way the body still faces.
+        // So do a fore limb's steps along the branch being transferred to:
+        // the body, still facing up the trunk, turns to the branch only as
+        // they go (a branch falling away from the junction is behind the
+        // body's heading: trunk_branch at 140°–160° stopped there).
         let travel = match transfer {
             Some(t) if t.trunk == sid && !transfer_step => a.tangent * sdir,
+            Some(_) if limb.is_fore() && !transfer_step => a.tangent * sdir,
             _ => self.travel(),
         };
         let body_fwd = self.body_rot * Vec3::Z;
@@ -2677,6 +2811,7 @@ impl Sloth {
         let mut k = KeyBits::<BODY_KEY_LEN>::new();
         k.f32s(&self.body_pos.to_array());
         k.f32s(&self.body_rot.to_array());
+        k.f32s(&self.hang_side.to_array());
         match self.transfer {
             Some(t) => {
                 k.u32s(&[1, t.to.0, t.trunk.0]);
@@ -3078,6 +3213,9 @@ impl Sloth {
                 continue;
             }
             self.limbs[li].due = false;
+            if self.limbs.iter().all(|l| l.phase == LimbPhase::Planted) {
+                self.keep_hang_side(w);
+            }
             self.limbs[li].phase = LimbPhase::Searching;
             self.limbs[li].search = self
                 .goal_branch_search(w, li)

@@ -758,7 +758,7 @@ impl Crowd {
 
 const MAGIC: &[u8; 16] = b"SLOTHSIM-STATE\0\0";
 /// Checkpoint format version; bump on any change of the saved data.
-pub const CHECKPOINT_VERSION: u32 = 10;
+pub const CHECKPOINT_VERSION: u32 = 11;
 
 #[derive(Serialize, Deserialize)]
 struct Checkpoint {
