@@ -59,8 +59,6 @@ pub fn project(s: &Support, p: Vec3) -> AxisPoint {
 #[derive(Clone, Debug, Default)]
 pub struct Adjacency {
     lists: Vec<Vec<SupportId>>,
-    /// Per support, the trunks among itself and its neighbours.
-    trunks: Vec<Vec<SupportId>>,
     /// Per support, the box holding its surface (min, max corners).
     bounds: Vec<(Vec3, Vec3)>,
     /// Per support, bounds of its axis segments in runs of [`SEGMENT_CHUNK`].
@@ -140,17 +138,6 @@ impl Adjacency {
             lists[s.id.0 as usize] = near;
         }
         let chunks = scene.supports().iter().map(segment_chunks).collect();
-        let is_trunk = |id: SupportId| scene.support(id).kind == slothsim_scene::SupportKind::Trunk;
-        let trunks = scene
-            .supports()
-            .iter()
-            .map(|s| {
-                std::iter::once(s.id)
-                    .chain(lists[s.id.0 as usize].iter().copied())
-                    .filter(|&id| is_trunk(id))
-                    .collect()
-            })
-            .collect();
         let bounds = scene
             .supports()
             .iter()
@@ -163,7 +150,6 @@ impl Adjacency {
             .collect();
         Adjacency {
             lists,
-            trunks,
             bounds,
             chunks,
         }
@@ -176,12 +162,6 @@ impl Adjacency {
             .get(id.0 as usize)
             .copied()
             .unwrap_or((Vec3::INFINITY, Vec3::NEG_INFINITY))
-    }
-
-    /// The trunks among a support and its neighbours, sorted by id, the
-    /// support first if it is one.
-    pub fn trunks_near(&self, id: SupportId) -> &[SupportId] {
-        self.trunks.get(id.0 as usize).map_or(&[], |v| v.as_slice())
     }
 
     /// Bounds of a support's axis segments in runs of [`SEGMENT_CHUNK`]

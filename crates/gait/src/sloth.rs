@@ -122,12 +122,19 @@ const TRANSFER_AWAY: f32 = 0.15;
 /// within this distance of the trunk rolls about the branch toward its own
 /// side, all the way ([`HANG_MAX_ROLL`]) where it would touch the trunk (m).
 /// In the narrow fork under a branch that falls away from its trunk
-/// (trunk_branch at 135°–160°) the body has no room below the branch. 0.08
-/// and 0.12 lose one or two angles of the matrix's trunk_branch sweep.
+/// (trunk_branch at 135°–150°) the body has no room below the branch. With
+/// 0.08 the matrix's trunk_branch sweep passes the same angles, with 0.12
+/// it loses 120° and 150°.
 const HANG_CLEARANCE: f32 = 0.1;
 /// A body less than this far off its branch's vertical plane hangs in it
 /// (m): it rolls to the right of its heading (see `Sloth::keep_hang_side`).
 const HANG_SIDE_TIE: f32 = 0.01;
+/// A trunk whose direction from the body is this far (cosine) to a side of
+/// the branch's vertical plane or more decides the roll: away from it; one
+/// in the plane (the fork below a branch) leaves it to the body's own side
+/// ([`Sloth::hang_side`]), with no roll where the two disagree halfway (a
+/// crowd sloth rolled its own way into a trunk beside the branch).
+const HANG_TRUNK_SIDE: f32 = 0.3;
 /// The most the body rolls about a branch to clear a trunk: level with the
 /// branch, beside it (radians).
 const HANG_MAX_ROLL: f32 = std::f32::consts::FRAC_PI_2;
@@ -376,6 +383,10 @@ pub struct Sloth {
     /// goes that way. It is state, not read off the drawn body, so the step
     /// checks roll a stance the way the drawn body will.
     pub hang_side: Vec3,
+    /// Off a trunk onto a branch (`transfer_to_branch`): that trunk, which
+    /// the body still rolls clear of while it walks out of the fork, until
+    /// a step search starts unrolled (see [`Sloth::hang_roll`]).
+    pub hang_trunk: Option<SupportId>,
     /// Wander mode, stopped (`NoGrip`): the time it tries again (the way
     /// may have been blocked by sloths that since moved on).
     pub resume_at: Option<f32>,
@@ -389,10 +400,10 @@ const SOLVE_KEY_LEN: usize = 7 + 4 * (3 + 16 + 4 + 4 + 1 + 3 + 3);
 /// The bits of the fields [`Sloth::solve_limbs`] reads or writes.
 type SolveKey = [u32; SOLVE_KEY_LEN];
 
-/// Words of a [`BodyKey`]: the body (position, rotation), the hang side,
+/// Words of a [`BodyKey`]: the body (position, rotation), the hang side and flag,
 /// the transfer (flag, supports, side, away), then per limb its phase, grip
 /// point and support, and target.
-const BODY_KEY_LEN: usize = 7 + 3 + 9 + 4 * 8;
+const BODY_KEY_LEN: usize = 7 + 4 + 9 + 4 * 8;
 
 /// The bits of the fields [`Sloth::body_average`] reads or writes while no
 /// limb swings.
@@ -940,6 +951,7 @@ impl Sloth {
             transfer: None,
             hind_back_scale: 1.0,
             hang_side: Vec3::ZERO,
+            hang_trunk: None,
         };
         // Settle the stance: a few rounds of (body from grips; each grip slid
         // along the support to where its limb reaches it best, searched in
@@ -1113,15 +1125,23 @@ impl Sloth {
 
     /// How far the body (heading `fwd`, paws' mean `mean`, `metres` below
     /// it) rolls about its branch to clear a trunk, as a share of
-    /// [`HANG_MAX_ROLL`]: none walking a trunk; in a transfer, from its
-    /// trunk; else from the trunks next to the supports held (the most any
-    /// needs). Per trunk: none unless the body hanging below the branch
+    /// [`HANG_MAX_ROLL`] (signed: + toward heading × up): in a transfer
+    /// under way, from its trunk; after a transfer onto a branch, from the trunk left
+    /// ([`Sloth::hang_trunk`]); else none (rolling from any trunk a branch
+    /// held meets, a crowd's sloths walking past trunks slipped grips by
+    /// 2 cm). From that trunk: none unless the body hanging below the branch
     /// would come within [`HANG_CLEARANCE`] of it, all where it would touch
     /// it, and only heading out from it ([`HANG_OUT_COS`]). Continuous in
     /// the paws: the body never jumps between frames or stance checks.
     fn hang_roll(&self, w: &World<'_>, fwd: Vec3, mean: Vec3, metres: f32) -> f32 {
         let scene = w.scene();
         let up0 = (Vec3::Y - fwd * fwd.dot(Vec3::Y)).normalize_or(Vec3::Y);
+        let lateral = fwd.cross(Vec3::Y).normalize_or_zero();
+        let own_side = if lateral.dot(self.hang_side) >= 0.0 {
+            1.0
+        } else {
+            -1.0
+        };
         let pos = mean - up0 * metres;
         let rot = rotation_from(fwd, up0);
         let torso = [pos + rot * w.rig.torso_ms[0], pos + rot * w.rig.torso_ms[1]];
@@ -1132,31 +1152,36 @@ impl Sloth {
         let roll = |trunk: SupportId| {
             let (blo, bhi) = w.adjacency.bounds(trunk);
             if blo.cmpgt(hi).any() || bhi.cmplt(lo).any() {
-                return 0.0;
+                return (0.0, 0.0);
             }
             let s = scene.support(trunk);
             let depth =
                 torso_penetration(s, w.adjacency.segment_chunks(trunk), torso, -HANG_CLEARANCE);
             if depth <= -HANG_CLEARANCE {
-                return 0.0;
+                return (0.0, 0.0);
             }
             let a = project(s, mean);
             let radial = (mean - a.point) - a.tangent * a.tangent.dot(mean - a.point);
             let heading_out = (fwd.dot(radial.normalize_or_zero()) / HANG_OUT_COS).clamp(0.0, 1.0);
-            heading_out * ((depth + HANG_CLEARANCE) / HANG_CLEARANCE).clamp(0.0, 1.0)
+            let need = heading_out * ((depth + HANG_CLEARANCE) / HANG_CLEARANCE).clamp(0.0, 1.0);
+            // Away from a trunk off to a side of the branch; toward the
+            // body's own side of it where the trunk is below it (the fork),
+            // passing through no roll in between (continuous).
+            let trunk_side = (lateral.dot((mean - a.point).normalize_or_zero()) / HANG_TRUNK_SIDE)
+                .clamp(-1.0, 1.0);
+            (need, trunk_side + (1.0 - trunk_side.abs()) * own_side)
         };
-        match self.transfer {
-            Some(tr) => roll(tr.trunk),
-            None if self.fore_on_trunk(w) => 0.0,
-            None => {
-                let held = self.limbs.map(|l| l.grip.support);
-                (0..4)
-                    .filter(|&k| !held[..k].contains(&held[k]))
-                    .flat_map(|k| w.adjacency.trunks_near(held[k]).iter().copied())
-                    .map(roll)
-                    .fold(0.0, f32::max)
-            }
-        }
+        // A transfer only set up by a search (no limb on its target yet)
+        // rolls nothing: one that is not taken leaves no jump behind.
+        let under_way = self
+            .transfer
+            .filter(|tr| self.limbs.iter().any(|l| l.grip.support == tr.to));
+        let (need, side) = match (under_way, self.hang_trunk) {
+            (Some(tr), _) => roll(tr.trunk),
+            (None, Some(trunk)) if !self.fore_on_trunk(w) => roll(trunk),
+            _ => (0.0, 0.0),
+        };
+        need * side
     }
 
     /// At the start of a step search with no other limb in a step (and at
@@ -1172,9 +1197,10 @@ impl Sloth {
         let fwd = self.formula6_fwd(&t);
         let mean = (t[0] + t[1] + t[2] + t[3]) * 0.25;
         let metres = body_offset(w, self.trunk_weights(w)).metres;
-        if self.hang_roll(w, fwd, mean, metres) > 0.0 {
+        if self.hang_roll(w, fwd, mean, metres) != 0.0 {
             return;
         }
+        self.hang_trunk = None;
         let lateral = fwd.cross(Vec3::Y).normalize_or_zero();
         self.hang_side = if lateral.dot(self.body_pos - mean) < -HANG_SIDE_TIE {
             -lateral
@@ -1192,14 +1218,8 @@ impl Sloth {
             return Vec3::Y;
         }
         // Turning up about the heading by -angle moves the body (below it)
-        // toward `lateral` (heading × up).
-        let lateral = fwd.cross(Vec3::Y);
-        let side = if lateral.dot(self.hang_side) >= 0.0 {
-            1.0
-        } else {
-            -1.0
-        };
-        Quat::from_axis_angle(fwd, -side * roll * HANG_MAX_ROLL) * Vec3::Y
+        // toward heading × up.
+        Quat::from_axis_angle(fwd, -roll * HANG_MAX_ROLL) * Vec3::Y
     }
 
     /// Both fore limbs hold the same trunk (the body faces it).
@@ -2244,6 +2264,7 @@ impl Sloth {
         self.transfer = None;
         let s = w.scene().support(tr.to);
         if s.kind != SupportKind::Trunk {
+            self.hang_trunk = Some(tr.trunk);
             return;
         }
         let here = project(s, self.body_pos);
@@ -2812,6 +2833,7 @@ impl Sloth {
         k.f32s(&self.body_pos.to_array());
         k.f32s(&self.body_rot.to_array());
         k.f32s(&self.hang_side.to_array());
+        k.u32s(&[self.hang_trunk.map_or(u32::MAX, |t| t.0)]);
         match self.transfer {
             Some(t) => {
                 k.u32s(&[1, t.to.0, t.trunk.0]);
