@@ -378,10 +378,11 @@ pub struct Sloth {
     /// The share of `offset_back_m` the hind pair's swing onto a branch
     /// uses (the most its stance checks allowed).
     pub hind_back_scale: f32,
-    /// The side the body is on (from the paws' mean), kept while it rolls
-    /// about a branch to clear a trunk (see [`Sloth::hang_up`]): the roll
-    /// goes that way. It is state, not read off the drawn body, so the step
-    /// checks roll a stance the way the drawn body will.
+    /// The side of its branch the body is on (from the paws' mean), kept
+    /// while it rolls about the branch to clear a trunk: in the fork below a
+    /// branch the roll goes that way (see [`Sloth::hang_roll`]). It is
+    /// state, not read off the drawn body, so the step checks roll a stance
+    /// the way the drawn body will.
     pub hang_side: Vec3,
     /// Off a trunk onto a branch (`transfer_to_branch`): that trunk, which
     /// the body still rolls clear of while it walks out of the fork, until
@@ -1134,6 +1135,16 @@ impl Sloth {
     /// it, and only heading out from it ([`HANG_OUT_COS`]). Continuous in
     /// the paws: the body never jumps between frames or stance checks.
     fn hang_roll(&self, w: &World<'_>, fwd: Vec3, mean: Vec3, metres: f32) -> f32 {
+        // A transfer only set up by a search (no limb on its target yet)
+        // rolls nothing: one that is not taken leaves no jump behind.
+        let under_way = self
+            .transfer
+            .filter(|tr| self.limbs.iter().any(|l| l.grip.support == tr.to));
+        let trunk = match (under_way, self.hang_trunk) {
+            (Some(tr), _) => tr.trunk,
+            (None, Some(trunk)) if !self.fore_on_trunk(w) => trunk,
+            _ => return 0.0,
+        };
         let scene = w.scene();
         let up0 = (Vec3::Y - fwd * fwd.dot(Vec3::Y)).normalize_or(Vec3::Y);
         let lateral = fwd.cross(Vec3::Y).normalize_or_zero();
@@ -1149,39 +1160,25 @@ impl Sloth {
         // box apart from it is too far to matter (most trunks, most frames).
         let grow = Vec3::splat(BODY_RADIUS + HANG_CLEARANCE);
         let (lo, hi) = (torso[0].min(torso[1]) - grow, torso[0].max(torso[1]) + grow);
-        let roll = |trunk: SupportId| {
-            let (blo, bhi) = w.adjacency.bounds(trunk);
-            if blo.cmpgt(hi).any() || bhi.cmplt(lo).any() {
-                return (0.0, 0.0);
-            }
-            let s = scene.support(trunk);
-            let depth =
-                torso_penetration(s, w.adjacency.segment_chunks(trunk), torso, -HANG_CLEARANCE);
-            if depth <= -HANG_CLEARANCE {
-                return (0.0, 0.0);
-            }
-            let a = project(s, mean);
-            let radial = (mean - a.point) - a.tangent * a.tangent.dot(mean - a.point);
-            let heading_out = (fwd.dot(radial.normalize_or_zero()) / HANG_OUT_COS).clamp(0.0, 1.0);
-            let need = heading_out * ((depth + HANG_CLEARANCE) / HANG_CLEARANCE).clamp(0.0, 1.0);
-            // Away from a trunk off to a side of the branch; toward the
-            // body's own side of it where the trunk is below it (the fork),
-            // passing through no roll in between (continuous).
-            let trunk_side = (lateral.dot((mean - a.point).normalize_or_zero()) / HANG_TRUNK_SIDE)
-                .clamp(-1.0, 1.0);
-            (need, trunk_side + (1.0 - trunk_side.abs()) * own_side)
-        };
-        // A transfer only set up by a search (no limb on its target yet)
-        // rolls nothing: one that is not taken leaves no jump behind.
-        let under_way = self
-            .transfer
-            .filter(|tr| self.limbs.iter().any(|l| l.grip.support == tr.to));
-        let (need, side) = match (under_way, self.hang_trunk) {
-            (Some(tr), _) => roll(tr.trunk),
-            (None, Some(trunk)) if !self.fore_on_trunk(w) => roll(trunk),
-            _ => (0.0, 0.0),
-        };
-        need * side
+        let (blo, bhi) = w.adjacency.bounds(trunk);
+        if blo.cmpgt(hi).any() || bhi.cmplt(lo).any() {
+            return 0.0;
+        }
+        let s = scene.support(trunk);
+        let depth = torso_penetration(s, w.adjacency.segment_chunks(trunk), torso, -HANG_CLEARANCE);
+        if depth <= -HANG_CLEARANCE {
+            return 0.0;
+        }
+        let a = project(s, mean);
+        let radial = (mean - a.point) - a.tangent * a.tangent.dot(mean - a.point);
+        let heading_out = (fwd.dot(radial.normalize_or_zero()) / HANG_OUT_COS).clamp(0.0, 1.0);
+        let need = heading_out * ((depth + HANG_CLEARANCE) / HANG_CLEARANCE).clamp(0.0, 1.0);
+        // Away from a trunk off to a side of the branch; toward the body's
+        // own side of it where the trunk is below it (the fork), passing
+        // through no roll in between (continuous).
+        let trunk_side =
+            (lateral.dot((mean - a.point).normalize_or_zero()) / HANG_TRUNK_SIDE).clamp(-1.0, 1.0);
+        need * (trunk_side + (1.0 - trunk_side.abs()) * own_side)
     }
 
     /// At the start of a step search with no other limb in a step (and at
@@ -1209,10 +1206,9 @@ impl Sloth {
         };
     }
 
-    /// The body's up on a branch heading `fwd`, rolled by share `roll` of
-    /// [`HANG_MAX_ROLL`] ([`Self::hang_roll`]) from world up about the
-    /// heading, toward the side of the branch the body is on
-    /// ([`Sloth::hang_side`]).
+    /// The body's up on a branch heading `fwd`: world up turned about the
+    /// heading by the signed share `roll` of [`HANG_MAX_ROLL`]
+    /// ([`Self::hang_roll`]; + moves the body toward heading × up).
     fn hang_up(&self, fwd: Vec3, roll: f32) -> Vec3 {
         if roll == 0.0 {
             return Vec3::Y;
