@@ -786,6 +786,11 @@ fn grip_out(kind: SupportKind, limb: Limb, f: Vec3, up: Vec3, trunk_angle: f32) 
     }
 }
 
+/// The mean of four IK targets (formula 7's paws' mean).
+fn paws_mean(t: &[Vec3; 4]) -> Vec3 {
+    (t[0] + t[1] + t[2] + t[3]) * 0.25
+}
+
 fn rotation_from(f: Vec3, up: Vec3) -> Quat {
     let z = f.normalize_or(Vec3::Z);
     let y = (up - z * z.dot(up)).normalize_or(z.any_orthonormal_vector());
@@ -1079,14 +1084,8 @@ impl Sloth {
         offset: BodyOffset,
         side: BodySide,
     ) -> (Vec3, Vec3) {
-        let (lf, rf, lh, rh) = (
-            t[Limb::LF.index()],
-            t[Limb::RF.index()],
-            t[Limb::LH.index()],
-            t[Limb::RH.index()],
-        );
         let fwd = self.formula6_fwd(t);
-        let mean = (lf + rf + lh + rh) * 0.25;
+        let mean = paws_mean(t);
         let s = w.scene().support(self.limbs[Limb::LF.index()].grip.support);
         let on_trunk = self.fore_on_trunk(w);
         let up = if let Some(tr) = self.transfer {
@@ -1192,7 +1191,7 @@ impl Sloth {
     fn keep_hang_side(&mut self, w: &World<'_>) {
         let t = self.targets();
         let fwd = self.formula6_fwd(&t);
-        let mean = (t[0] + t[1] + t[2] + t[3]) * 0.25;
+        let mean = paws_mean(&t);
         let metres = body_offset(w, self.trunk_weights(w)).metres;
         if self.hang_roll(w, fwd, mean, metres) != 0.0 {
             return;
@@ -1273,7 +1272,7 @@ impl Sloth {
         side: BodySide,
     ) -> (Vec3, Quat) {
         let (f, up) = self.body_frame(w, t, offset, side);
-        let mean = (t[0] + t[1] + t[2] + t[3]) * 0.25;
+        let mean = paws_mean(t);
         let (pos, rot) = (mean - up * offset.metres, rotation_from(f, up));
         match self.transfer {
             Some(tr) if offset.hind_back_m > 0.0 => {
