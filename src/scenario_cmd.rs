@@ -4,7 +4,8 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
 use clap::{Args, ValueEnum};
-use slothsim::gait::{LocomotionConfig, Profile, Tolerances};
+use slothsim::gait::{LocomotionConfig, Profile};
+use slothsim::observe::Tolerances;
 use slothsim::rig::Limb;
 use slothsim::rig::Rig;
 use slothsim::scene::{Preset, PresetKind};
@@ -218,7 +219,7 @@ fn print_result(r: &ScenarioResult) {
 }
 
 /// One line of per-limb means: contact / swing (s), stride (m).
-fn print_limbs(label: &str, g: &slothsim::gait::GaitReport) {
+fn print_limbs(label: &str, g: &slothsim::observe::GaitReport) {
     let limbs = Limb::ALL.map(|limb| {
         let l = g.limbs.get(limb);
         format!(

@@ -11,10 +11,8 @@ use rand::seq::SliceRandom;
 use rand_pcg::Pcg64Mcg;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
-use slothsim_gait::{
-    GaitReport, GaitStats, Judge, JudgeReport, LimbPhase, LocomotionConfig, Sloth,
-    SlothObservation, SpawnHint, Tolerances, TraceBatch,
-};
+use slothsim_gait::{LimbPhase, LocomotionConfig, Sloth, SlothObservation, SpawnHint, TraceBatch};
+use slothsim_observe::{GaitReport, GaitStats, Judge, JudgeReport, Tolerances};
 use slothsim_rig::Rig;
 use slothsim_scene::{ForestConfig, Scene, SupportId, SupportKind, TraceScene};
 

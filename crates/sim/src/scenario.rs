@@ -4,10 +4,8 @@
 use bevy_ecs::prelude::*;
 use glam::Vec3;
 use serde::Serialize;
-use slothsim_gait::{
-    GaitReport, GaitStats, Judge, JudgeReport, LocomotionConfig, SlothObservation, SpawnHint,
-    Status, Tolerances, Verdict,
-};
+use slothsim_gait::{LocomotionConfig, SlothObservation, SpawnHint, Status};
+use slothsim_observe::{GaitReport, GaitStats, Judge, JudgeReport, Tolerances, Verdict};
 use slothsim_plot::{SideInstant, TraceLine};
 use slothsim_rig::Rig;
 use slothsim_scene::{Preset, PresetKind, TraceScene};

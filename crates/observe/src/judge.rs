@@ -29,7 +29,7 @@ use glam::{Quat, Vec3};
 use serde::{Deserialize, Serialize};
 use slothsim_rig::Limb;
 
-use crate::observe::{LimbObservation, SlothObservation};
+use slothsim_gait::observe::{LimbObservation, SlothObservation};
 
 /// A joint-limit violation counts when `limit_violation` exceeds this many
 /// radians (about 0.006°): above the float noise of a clamped CCD pose, far

@@ -35,7 +35,7 @@ use serde::{Deserialize, Serialize};
 use slothsim_rig::Limb;
 
 use crate::judge::observation_is_finite;
-use crate::observe::SlothObservation;
+use slothsim_gait::observe::SlothObservation;
 
 /// How many lift-offs the footfall order keeps.
 pub const FOOTFALL_CAPACITY: usize = 32;
@@ -598,7 +598,7 @@ pub(crate) mod synthetic {
     use slothsim_rig::Limb;
     use slothsim_scene::SupportId;
 
-    use crate::observe::{LimbObservation, SlothObservation};
+    use slothsim_gait::observe::{LimbObservation, SlothObservation};
 
     /// Frame step, seconds.
     pub const DT: f32 = 1.0 / 60.0;
