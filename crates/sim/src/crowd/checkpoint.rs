@@ -10,6 +10,7 @@ use slothsim_rig::Rig;
 use slothsim_scene::{Scene, TraceScene};
 
 use super::hash::Fnv;
+use super::stats::crowd_judge;
 use super::{Crowd, CrowdError, CrowdSpec, ForestSource, scene_hash};
 use crate::world::{CrowdNeighbours, Locomotion, SlothId, SlothState, Traces};
 
@@ -51,6 +52,11 @@ impl Crowd {
             path: path.to_path_buf(),
             message,
         };
+        let Some(forest) = self.forest.clone() else {
+            return Err(err(
+                "a lone sloth on a scenario preset has no forest to save".into(),
+            ));
+        };
         let mut q = self.world.query::<(&SlothId, &SlothState, &Traces)>();
         let mut rows: Vec<(u32, Sloth, TraceBatch)> = q
             .iter(&self.world)
@@ -64,7 +70,7 @@ impl Crowd {
             clearance_m: self.spec.clearance_m,
             frame: self.frame(),
             cfg: self.spec.cfg.clone(),
-            forest: self.forest.clone(),
+            forest,
             sloths: rows.iter().map(|r| r.1).collect(),
             traces: rows.into_iter().map(|r| r.2).collect(),
         };
@@ -166,14 +172,15 @@ impl Crowd {
         spec.validate()?;
         let loco = Locomotion::new(spec.cfg.clone(), rig, TraceScene::new(scene))?;
         let neighbours = CrowdNeighbours::new(spec.clearance_m);
+        let sloths = cp.sloths.into_iter().zip(cp.traces).collect();
         Ok(Self::assemble(
             spec,
             loco,
-            cp.forest,
-            neighbours,
-            cp.sloths,
-            Some(cp.traces),
+            Some(cp.forest),
+            Some(neighbours),
+            sloths,
             cp.frame,
+            crowd_judge(),
         ))
     }
 }

@@ -14,7 +14,7 @@ use std::path::PathBuf;
 use bevy_ecs::prelude::*;
 use serde::{Deserialize, Serialize};
 use slothsim_gait::{LimbPhase, LocomotionConfig, Sloth, TraceBatch};
-use slothsim_observe::Tolerances;
+use slothsim_observe::Judge;
 use slothsim_scene::ForestConfig;
 
 use crate::StageTimings;
@@ -28,9 +28,7 @@ pub mod stats;
 pub use checkpoint::{CHECKPOINT_VERSION, CheckpointInfo};
 pub use hash::{scene_hash, state_hash_of};
 pub use spawn::{SLOTHS_PER_TREE, forest_for};
-pub use stats::{
-    CrowdStats, Observer, Percentiles, Roaming, STUCK_AFTER_S, StagesMs, WorstSloths,
-};
+pub use stats::{CrowdStats, Observer, Percentiles, Roaming, STUCK_AFTER_S, StagesMs, WorstSloths};
 
 use spawn::SLOT_SPACING_M;
 
@@ -127,34 +125,43 @@ pub struct Crowd {
     world: World,
     schedule: Schedule,
     spec: CrowdSpec,
-    forest: ForestSource,
+    /// Where the forest came from; `None` for a lone sloth on a scenario
+    /// preset (not checkpointed).
+    forest: Option<ForestSource>,
     observe_ms: Vec<f64>,
 }
 
 impl Crowd {
+    /// The world of `sloths` with their queued traces at `frame`, each
+    /// with an [`Observer`] judging with `judge`. With `neighbours`, sloths
+    /// keep clear of each other; without, a sloth is alone (a scenario run,
+    /// whose observer also keeps every observation).
     fn assemble(
         spec: CrowdSpec,
         loco: Locomotion,
-        forest: ForestSource,
-        mut neighbours: CrowdNeighbours,
-        sloths: Vec<Sloth>,
-        traces: Option<Vec<TraceBatch>>,
+        forest: Option<ForestSource>,
+        neighbours: Option<CrowdNeighbours>,
+        sloths: Vec<(Sloth, TraceBatch)>,
         frame: u64,
+        judge: Judge,
     ) -> Crowd {
-        neighbours.rebuild(&loco, sloths.iter().map(|s| (s.id, s)));
+        let keep_history = neighbours.is_none();
+        let neighbours = neighbours.map(|mut n| {
+            n.rebuild(&loco, sloths.iter().map(|(s, _)| (s.id, s)));
+            n
+        });
         let mut world = new_world(loco, spec.dt);
         world.resource_mut::<SimClock>().frame = frame;
-        world.insert_resource(neighbours);
-        let tol = Tolerances::issue_limits();
-        let mut traces = traces.map(|t| t.into_iter());
+        if let Some(n) = neighbours {
+            world.insert_resource(n);
+        }
         world.spawn_batch(
             sloths
                 .into_iter()
-                .map(|s| {
-                    let tr = traces.as_mut().and_then(|t| t.next()).unwrap_or_default();
+                .map(|(s, tr)| {
                     (
                         SlothId(s.id),
-                        Observer::new(tol, s.time),
+                        Observer::new(judge.clone(), s.time, keep_history),
                         SlothState(s),
                         Traces(tr),
                     )
@@ -183,6 +190,12 @@ impl Crowd {
     /// The ECS world (read-only).
     pub fn world(&self) -> &World {
         &self.world
+    }
+
+    /// The entity of sloth `id`.
+    pub fn entity(&self, id: u32) -> Option<Entity> {
+        let mut q = self.world.try_query::<(Entity, &SlothId)>()?;
+        q.iter(&self.world).find(|(_, i)| i.0 == id).map(|(e, _)| e)
     }
 
     /// Per-frame stage timings so far.

@@ -7,10 +7,12 @@ use rand::SeedableRng;
 use rand::seq::SliceRandom;
 use rand_pcg::Pcg64Mcg;
 use rayon::prelude::*;
-use slothsim_gait::{Sloth, SlothObservation, SpawnHint};
+use slothsim_gait::{Sloth, SlothObservation, SpawnHint, TraceBatch};
+use slothsim_observe::Judge;
 use slothsim_rig::Rig;
 use slothsim_scene::{ForestConfig, Scene, SupportKind, TraceScene};
 
+use super::stats::crowd_judge;
 use super::{Crowd, CrowdError, CrowdSpec, ForestSource};
 use crate::world::{CrowdNeighbours, Locomotion};
 
@@ -169,8 +171,34 @@ impl Crowd {
                 capacity: accepted.len() as u32,
             });
         }
+        let sloths = accepted
+            .into_iter()
+            .map(|s| (s, TraceBatch::default()))
+            .collect();
         Ok(Self::assemble(
-            spec, loco, forest, neighbours, accepted, None, 0,
+            spec,
+            loco,
+            Some(forest),
+            Some(neighbours),
+            sloths,
+            0,
+            crowd_judge(),
         ))
+    }
+
+    /// One sloth alone on `loco`'s scene (a scenario run): `sloth` as
+    /// spawned there, judged with `judge`, every observation kept (see
+    /// [`Observer::history`](super::Observer::history)). No neighbours, no
+    /// wandering; not checkpointed.
+    pub fn lone(loco: Locomotion, sloth: Sloth, dt: f32, judge: Judge) -> Crowd {
+        let spec = CrowdSpec {
+            sloths: 1,
+            seed: 0,
+            dt,
+            cfg: loco.cfg.clone(),
+            clearance_m: 0.0,
+        };
+        let sloths = vec![(sloth, TraceBatch::default())];
+        Self::assemble(spec, loco, None, None, sloths, 0, judge)
     }
 }

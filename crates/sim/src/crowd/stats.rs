@@ -14,12 +14,21 @@ use crate::world::{Locomotion, SlothId, SlothState};
 /// A sloth that has not completed a step for this long at the end of a run is stuck.
 pub const STUCK_AFTER_S: f32 = 10.0;
 
+/// The judge of a wandering sloth: the issue's limits, no time limit (a
+/// wanderer has no goal to reach in time).
+pub(super) fn crowd_judge() -> Judge {
+    Judge::new(Tolerances::issue_limits(), f32::INFINITY)
+}
+
 /// Per-sloth judge and gait statistics, fed after every tick (outside the
-/// timed stages).
+/// timed stages), and what the crowd statistics count besides.
 #[derive(Component)]
 pub struct Observer {
     judge: Judge,
     stats: GaitStats,
+    /// Every frame's observation, when kept (a lone sloth's scenario run
+    /// keeps them for its steady-state statistics and plots; a crowd does not).
+    history: Option<Vec<SlothObservation>>,
     planted: [bool; 4],
     /// Simulated time of the last touch-down.
     last_step_s: f32,
@@ -36,10 +45,13 @@ pub struct Observer {
 }
 
 impl Observer {
-    pub(super) fn new(tolerances: Tolerances, time_s: f32) -> Self {
+    /// An observer judging with `judge`, of a sloth whose clock reads
+    /// `time_s`; it keeps every observation when `keep_history`.
+    pub(super) fn new(judge: Judge, time_s: f32, keep_history: bool) -> Self {
         Observer {
-            judge: Judge::new(tolerances, f32::INFINITY),
+            judge,
             stats: GaitStats::new(),
+            history: keep_history.then(Vec::new),
             planted: [true; 4],
             last_step_s: time_s,
             visited: Vec::new(),
@@ -53,6 +65,9 @@ impl Observer {
     pub(super) fn observe(&mut self, obs: &SlothObservation) {
         self.judge.observe(obs);
         self.stats.observe(obs);
+        if let Some(h) = &mut self.history {
+            h.push(*obs);
+        }
         for (i, l) in obs.limbs.iter().enumerate() {
             if l.planted && !self.planted[i] {
                 self.last_step_s = obs.time_s;
@@ -69,6 +84,21 @@ impl Observer {
             self.kind_changes += 1;
         }
         self.on_trunk = Some(obs.on_trunk);
+    }
+
+    /// The judge so far.
+    pub fn judge(&self) -> &Judge {
+        &self.judge
+    }
+
+    /// The gait statistics so far.
+    pub fn gait(&self) -> &GaitStats {
+        &self.stats
+    }
+
+    /// Every frame's observation, oldest first (empty unless kept).
+    pub fn history(&self) -> &[SlothObservation] {
+        self.history.as_deref().unwrap_or_default()
     }
 }
 
@@ -254,7 +284,7 @@ impl Crowd {
             .collect();
         rows.sort_unstable_by_key(|r| r.0);
         let judge = JudgeReport::aggregate(rows.iter().map(|r| &r.3))
-            .unwrap_or_else(|| Judge::new(Tolerances::issue_limits(), f32::INFINITY).finish());
+            .unwrap_or_else(|| crowd_judge().finish());
         let gait = GaitReport::aggregate(rows.iter().map(|r| &r.4));
         let stuck_ids: Vec<u32> = rows.iter().filter(|r| r.5).map(|r| r.0).collect();
         let roaming = self.roaming();
