@@ -9,3 +9,5 @@ pub use slothsim_observe as observe;
 pub use slothsim_rig as rig;
 pub use slothsim_scene as scene;
 pub use slothsim_sim as sim;
+
+pub mod to_plot;
