@@ -19,7 +19,7 @@ use slothsim_plot::{
     draw_gait, draw_side, draw_topdown, save_png,
 };
 
-use crate::run_cmd::{load_checkpoint, prepare_out};
+use crate::cli_common::{load_checkpoint, prepare_out};
 
 /// Cost of one plot: drawing and writing the PNG, milliseconds.
 #[derive(Clone, Debug)]
