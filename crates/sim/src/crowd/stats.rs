@@ -248,7 +248,7 @@ pub struct StagesMs {
 }
 
 impl StagesMs {
-    /// From per-frame stage times (columns in [`StageTimings::NAMES`] order).
+    /// From per-frame stage times (columns in [`StageTimings::NAMES`](crate::StageTimings::NAMES) order).
     pub fn of(history: &[[f64; 5]]) -> Self {
         let col = |i: usize| Percentiles::of(&history.iter().map(|r| r[i]).collect::<Vec<_>>());
         StagesMs {
