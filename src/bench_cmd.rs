@@ -29,7 +29,7 @@ use slothsim::sim::{
     init_compute_pool, state_hash_of, write_atomically,
 };
 
-use crate::scenario_cmd::{ProfileArg, load_config};
+use crate::cli_common::{ProfileArg, load_config};
 
 #[derive(Args)]
 pub struct BenchArgs {

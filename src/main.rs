@@ -1,6 +1,7 @@
 //! The `slothsim` command line.
 
 mod bench_cmd;
+mod cli_common;
 mod plots;
 mod run_cmd;
 mod scenario_cmd;

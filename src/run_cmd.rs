@@ -14,7 +14,7 @@ use slothsim::sim::{
     scene_hash, write_atomically,
 };
 
-use crate::scenario_cmd::{ProfileArg, load_config};
+use crate::cli_common::{ProfileArg, load_checkpoint, load_config, prepare_out};
 
 #[derive(Args)]
 pub struct RunArgs {
@@ -127,31 +127,6 @@ fn build_crowd(args: &RunArgs, rig: &Rig) -> Result<Crowd> {
         clearance_m: args.clearance,
     };
     Ok(Crowd::new(spec, rig, scene, source)?)
-}
-
-/// A crowd from a checkpoint: its forest rebuilt (procedural) or read
-/// (`forest` overrides the file path the state names), then the state loaded.
-pub fn load_checkpoint(state: &Path, forest: Option<&Path>, rig: &Rig) -> Result<Crowd> {
-    let info = Crowd::checkpoint_info(state)?;
-    let scene = match &info.forest {
-        ForestSource::Procedural(cfg) => generate_forest(cfg)?,
-        ForestSource::File { path, .. } => {
-            let path = forest.unwrap_or(path);
-            read_scene(path).with_context(|| format!("forest {}", path.display()))?
-        }
-    };
-    Ok(Crowd::load_state(state, rig, scene)?)
-}
-
-/// Makes sure `dir` exists and is writable before a long run starts.
-pub fn prepare_out(dir: &Path) -> Result<()> {
-    std::fs::create_dir_all(dir)
-        .with_context(|| format!("cannot create output folder {}", dir.display()))?;
-    let probe = dir.join(".slothsim-write-probe");
-    std::fs::write(&probe, b"")
-        .with_context(|| format!("output folder {} is not writable", dir.display()))?;
-    let _ = std::fs::remove_file(probe);
-    Ok(())
 }
 
 pub fn run(args: RunArgs) -> Result<bool> {

@@ -1,10 +1,10 @@
 //! `slothsim scenario` and `slothsim matrix`: one sloth on thesis presets, judged.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use anyhow::{Context, Result, bail};
 use clap::{Args, ValueEnum};
-use slothsim::gait::{LocomotionConfig, Profile, Tolerances};
+use slothsim::observe::Tolerances;
 use slothsim::rig::Limb;
 use slothsim::rig::Rig;
 use slothsim::scene::{Preset, PresetKind};
@@ -13,14 +13,7 @@ use slothsim::sim::{
     run_scenario,
 };
 
-/// Gait profile names on the command line.
-#[derive(Clone, Copy, Debug, ValueEnum)]
-pub enum ProfileArg {
-    /// The thesis model (0.11 m/s).
-    Free,
-    /// SPEC Table 1 steady state.
-    Steady,
-}
+use crate::cli_common::{ProfileArg, load_config, prepare_out, preset_value, write_json};
 
 /// Scenario variant: trunk `up|down`, branch_trunk `to-trunk|to-branch`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -99,69 +92,6 @@ pub struct ScenarioArgs {
     no_plots: bool,
 }
 
-/// The locomotion config: profile defaults, overridden by a TOML file.
-pub fn load_config(profile: ProfileArg, file: Option<&Path>) -> Result<LocomotionConfig> {
-    let profile = match profile {
-        ProfileArg::Free => Profile::Free,
-        ProfileArg::Steady => Profile::Steady,
-    };
-    match file {
-        None => Ok(LocomotionConfig::profile(profile)),
-        Some(path) => {
-            let text = std::fs::read_to_string(path)
-                .with_context(|| format!("cannot read config {}", path.display()))?;
-            let mut text = text;
-            if !text.contains("profile") {
-                text = format!(
-                    "profile = \"{}\"\n{text}",
-                    match profile {
-                        Profile::Free => "free",
-                        Profile::Steady => "steady",
-                    }
-                );
-            }
-            LocomotionConfig::from_toml(&text)
-                .map_err(|e| anyhow::anyhow!("invalid config {}: {e}", path.display()))
-        }
-    }
-}
-
-/// The preset parameter from `--angle` (degrees) or `--param` (metres), whichever
-/// the preset takes; an error names the right flag.
-pub fn preset_value(
-    kind: PresetKind,
-    angle: Option<f32>,
-    param: Option<f32>,
-) -> Result<Option<f32>> {
-    Ok(match (kind.parameter(), angle, param) {
-        (_, Some(_), Some(_)) => bail!("give either --angle or --param, not both"),
-        (Some((name, unit, ..)), Some(_), None) if unit != "deg" => {
-            bail!(
-                "preset `{}` takes --param ({name} in {unit}), not --angle",
-                kind.name()
-            )
-        }
-        (Some((name, "deg", ..)), None, Some(_)) => {
-            bail!(
-                "preset `{}` takes --angle ({name} in degrees), not --param",
-                kind.name()
-            )
-        }
-        (_, a, p) => a.or(p),
-    })
-}
-
-/// Writes `value` as pretty JSON to `dir/name`, through a temporary file.
-pub fn write_json(dir: &Path, name: &str, value: &impl serde::Serialize) -> Result<PathBuf> {
-    std::fs::create_dir_all(dir)
-        .with_context(|| format!("cannot create output folder {}", dir.display()))?;
-    let path = dir.join(name);
-    let text = serde_json::to_string_pretty(value)?;
-    slothsim::sim::write_atomically(&path, text.as_bytes())
-        .with_context(|| format!("cannot write {}", path.display()))?;
-    Ok(path)
-}
-
 fn print_result(r: &ScenarioResult) {
     let j = &r.judge;
     let p = r.parameter.map_or(String::new(), |v| format!(" {v}"));
@@ -218,7 +148,7 @@ fn print_result(r: &ScenarioResult) {
 }
 
 /// One line of per-limb means: contact / swing (s), stride (m).
-fn print_limbs(label: &str, g: &slothsim::gait::GaitReport) {
+fn print_limbs(label: &str, g: &slothsim::observe::GaitReport) {
     let limbs = Limb::ALL.map(|limb| {
         let l = g.limbs.get(limb);
         format!(
@@ -262,7 +192,7 @@ pub fn scenario(args: ScenarioArgs) -> Result<bool> {
         tolerances: Tolerances::default(),
     };
     if let Some(dir) = &args.out {
-        crate::run_cmd::prepare_out(dir)?;
+        prepare_out(dir)?;
     }
     let result = run_scenario(&spec, &Rig::sloth())?;
     print_result(&result);
