@@ -19,7 +19,7 @@ pub const POSE_EVERY_S: f32 = 1.0;
 /// Which way a scenario is run: the trunk preset climbs up or down, the
 /// branch_trunk preset goes from the branch onto the trunk or back. Every
 /// other preset runs as `Up`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, serde::Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum TrunkVariant {
     /// Climb up the trunk; on branch_trunk the same as `ToTrunk` (the default run).

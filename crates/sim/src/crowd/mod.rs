@@ -177,6 +177,11 @@ impl Crowd {
         }
     }
 
+    /// Where the forest came from; `None` for a lone sloth on a scenario preset.
+    pub fn forest_source(&self) -> Option<&ForestSource> {
+        self.forest.as_ref()
+    }
+
     /// The spec.
     pub fn spec(&self) -> &CrowdSpec {
         &self.spec
