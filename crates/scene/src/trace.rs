@@ -800,8 +800,14 @@ mod surface_tests {
     #[test]
     fn closest_on_triangle_regions() {
         let t = [Vec3::ZERO, Vec3::X, Vec3::Y];
-        assert_eq!(closest_on_triangle(Vec3::new(0.2, 0.2, 1.0), t), Vec3::new(0.2, 0.2, 0.0));
-        assert_eq!(closest_on_triangle(Vec3::new(-1.0, -1.0, 0.0), t), Vec3::ZERO);
+        assert_eq!(
+            closest_on_triangle(Vec3::new(0.2, 0.2, 1.0), t),
+            Vec3::new(0.2, 0.2, 0.0)
+        );
+        assert_eq!(
+            closest_on_triangle(Vec3::new(-1.0, -1.0, 0.0), t),
+            Vec3::ZERO
+        );
         assert_eq!(closest_on_triangle(Vec3::new(2.0, -0.5, 0.0), t), Vec3::X);
         let e = closest_on_triangle(Vec3::new(0.5, -1.0, 0.0), t);
         assert!((e - Vec3::new(0.5, 0.0, 0.0)).length() < 1e-6);

@@ -51,7 +51,7 @@ impl Default for TreeParams {
     fn default() -> Self {
         TreeParams {
             height: 7.0,
-            trunk_radius: 0.22,
+            trunk_radius: 0.16,
             branches: 12,
             sub_branches: 2,
             fork: true,
@@ -388,13 +388,14 @@ pub fn generate_tree(params: &TreeParams, seed: u64, base: Vec3) -> GeneratedTre
             let pr = p.radii[k] + (p.radii[k + 1] - p.radii[k]) * t;
             let tangent = (p.axis[k + 1] - p.axis[k]).normalize();
             let level = level_of[parent] + 1;
-            // Around the parent, golden-angle azimuths; rising 15–60°.
+            // Around the parent, golden-angle azimuths; from 9° down to 52°
+            // up (lower limbs of many trees are level or hang).
             let az = az0 + b as f32 * 2.4;
             let out = {
                 let h = dir_from(az, 0.0);
                 (h - tangent * h.dot(tangent)).normalize_or(tangent.any_orthonormal_vector())
             };
-            let elev: f32 = rng.random_range(0.25..1.05);
+            let elev: f32 = rng.random_range(-0.15..0.9);
             let d0 = (out * elev.cos() + Vec3::Y * elev.sin()).normalize();
             let len = if level == 1 {
                 rng.random_range(1.6..3.2)

@@ -27,7 +27,7 @@ struct Args {
     #[arg(long, default_value_t = 7.0)]
     height: f32,
     /// Trunk radius at the base (m).
-    #[arg(long, default_value_t = 0.22)]
+    #[arg(long, default_value_t = 0.16)]
     trunk_radius: f32,
     /// Side branches on the trunk.
     #[arg(long, default_value_t = 12)]

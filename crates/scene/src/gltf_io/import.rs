@@ -7,7 +7,9 @@ use glam::{Mat4, Vec3};
 use serde_json::Value;
 
 use super::EXTRAS_KEY;
-use super::mesh_import::{ImportReport, MeshSkeleton, instance_supports, skeletonise_mesh};
+use super::mesh_import::{
+    ImportReport, MeshSkeleton, instance_supports, skeletonise_mesh, trim_embedded,
+};
 use crate::{Scene, SceneError, Support, SupportKind, TriMesh};
 
 /// Shortest axis segment accepted from extras (same limit as `Scene::new`).
@@ -75,6 +77,7 @@ fn import_checked(
 
     let mut supports = Vec::new();
     let mut report = ImportReport::default();
+    let mut made: Vec<usize> = Vec::new();
     let mut skeletons: std::collections::HashMap<usize, MeshSkeleton> = Default::default();
     for (node, world) in walk(&document) {
         let label = node_label(&node);
@@ -107,6 +110,7 @@ fn import_checked(
                     slot.insert(skel);
                 }
                 let skel = &skeletons[&mesh.index()];
+                let first = supports.len();
                 let base_name = node.name().or_else(|| mesh.name());
                 let tag = base_name.and_then(kind_from_name);
                 supports.extend(instance_supports(
@@ -120,10 +124,18 @@ fn import_checked(
                     &label,
                     &mut report,
                 ));
+                made.extend(first..supports.len());
             }
         }
     }
+    trim_embedded(&mut supports, &made);
     if supports.is_empty() {
+        if !report.warnings.is_empty() {
+            return Err(ctx.err(format!(
+                "no usable supports (trunks or branches) found: {}",
+                report.warnings.join("; ")
+            )));
+        }
         return Err(SceneError::NoSupports {
             source_name: file.to_string(),
         });

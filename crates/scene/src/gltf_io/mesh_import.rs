@@ -276,6 +276,12 @@ pub(super) fn instance_supports(
             .iter()
             .map(|p| world.transform_point3(*p))
             .collect();
+        if positions.iter().any(|p| !p.is_finite()) || !(scale.is_finite() && scale > 0.0) {
+            report.warnings.push(format!(
+                "{label}: the node transform makes the mesh degenerate or not finite; skipped"
+            ));
+            continue;
+        }
         for p in &positions {
             y_lo = y_lo.min(p.y);
             y_hi = y_hi.max(p.y);
@@ -515,4 +521,102 @@ fn compact(positions: &[Vec3], tris: &[[u32; 3]]) -> TriMesh {
         out.triangles.push(t2);
     }
     out
+}
+
+/// How deep a support may reach into another's tube (fraction of that
+/// tube's radius from its axis): the procedural forest starts branches at
+/// 0.6 radii from the trunk's axis, which the transfers are made for.
+const EMBED_DEPTH: f32 = 0.6;
+
+/// Trims the ends of skeleton supports (`made`: their indices) that reach
+/// deeper than [`EMBED_DEPTH`] into another support's tube (a branch growing
+/// out of a trunk, a side chain leaving its fork; skeleton supports only)
+/// back to that depth; drops
+/// those that lie wholly inside. Supports that share an end node (pieces of
+/// one chain) are not trimmed against each other.
+pub(super) fn trim_embedded(supports: &mut Vec<Support>, made: &[usize]) {
+    let boxes: Vec<(Vec3, Vec3)> = supports
+        .iter()
+        .map(|s| {
+            let r = s.radii.iter().copied().fold(0.0, f32::max);
+            s.nodes
+                .iter()
+                .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), p| {
+                    (lo.min(*p - r), hi.max(*p + r))
+                })
+        })
+        .collect();
+    let mut drop = vec![false; supports.len()];
+    let mut trimmed: Vec<(usize, Vec<Vec3>, Vec<f32>)> = Vec::new();
+    for &i in made {
+        let s = &supports[i];
+        let ends = [s.nodes[0], s.nodes[s.nodes.len() - 1]];
+        let others: Vec<usize> = made
+            .iter()
+            .copied()
+            .filter(|&j| {
+                let o = &supports[j];
+                let (lo, hi) = boxes[j];
+                j != i
+                    && ends.iter().any(|e| e.cmpge(lo).all() && e.cmple(hi).all())
+                    && !ends.iter().any(|e| {
+                        e.distance(o.nodes[0]) < 1e-3
+                            || e.distance(o.nodes[o.nodes.len() - 1]) < 1e-3
+                    })
+            })
+            .collect();
+        if others.is_empty() {
+            continue;
+        }
+        let inside = |p: Vec3| {
+            others.iter().any(|&j| {
+                let (q, _, _, r) = supports[j].closest_on_axis(p);
+                q.distance(p) < EMBED_DEPTH * r
+            })
+        };
+        let (mut nodes, mut radii) = (s.nodes.clone(), s.radii.clone());
+        for _end in 0..2 {
+            let k = nodes.iter().take_while(|p| inside(**p)).count();
+            if k == nodes.len() {
+                drop[i] = true;
+                break;
+            }
+            if k > 0 {
+                // Bisect the crossing between node k-1 (inside) and k.
+                let (mut a, mut b) = (0.0f32, 1.0f32);
+                for _ in 0..24 {
+                    let m = 0.5 * (a + b);
+                    if inside(nodes[k - 1].lerp(nodes[k], m)) {
+                        a = m;
+                    } else {
+                        b = m;
+                    }
+                }
+                let p = nodes[k - 1].lerp(nodes[k], b);
+                let r = radii[k - 1] + (radii[k] - radii[k - 1]) * b;
+                nodes.drain(..k);
+                radii.drain(..k);
+                if p.distance(nodes[0]) >= 1e-3 {
+                    nodes.insert(0, p);
+                    radii.insert(0, r);
+                }
+            }
+            nodes.reverse();
+            radii.reverse();
+        }
+        if !drop[i] && nodes.len() >= 2 && nodes != s.nodes {
+            trimmed.push((i, nodes, radii));
+        } else if nodes.len() < 2 {
+            drop[i] = true;
+        }
+    }
+    for (i, nodes, radii) in trimmed {
+        supports[i].nodes = nodes;
+        supports[i].radii = radii;
+    }
+    let mut k = 0;
+    supports.retain(|_| {
+        k += 1;
+        !drop[k - 1]
+    });
 }
