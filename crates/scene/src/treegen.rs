@@ -388,24 +388,24 @@ pub fn generate_tree(params: &TreeParams, seed: u64, base: Vec3) -> GeneratedTre
             let pr = p.radii[k] + (p.radii[k + 1] - p.radii[k]) * t;
             let tangent = (p.axis[k + 1] - p.axis[k]).normalize();
             let level = level_of[parent] + 1;
-            // Around the parent, golden-angle azimuths; from 9° down to 52°
-            // up (lower limbs of many trees are level or hang).
+            // Around the parent, golden-angle azimuths; from 26° down to 40°
+            // up (the limbs of many trees are level or hang).
             let az = az0 + b as f32 * 2.4;
             let out = {
                 let h = dir_from(az, 0.0);
                 (h - tangent * h.dot(tangent)).normalize_or(tangent.any_orthonormal_vector())
             };
-            let elev: f32 = rng.random_range(-0.15..0.9);
+            let elev: f32 = rng.random_range(-0.45..0.7);
             let d0 = (out * elev.cos() + Vec3::Y * elev.sin()).normalize();
             let len = if level == 1 {
-                rng.random_range(1.6..3.2)
+                rng.random_range(2.0..4.0)
             } else {
-                rng.random_range(0.7..1.4)
+                rng.random_range(0.8..1.6)
             };
             let droop = rng.random_range(0.0..0.5);
             let (_, _, dense) = spline(&mut rng, start, d0, len, 0.5, droop);
-            let rb = pr * rng.random_range(0.35..0.55);
-            let (axis, radii) = resample(&dense, rb, rb * rng.random_range(0.25..0.45), ring_step);
+            let rb = pr * rng.random_range(0.4..0.6);
+            let (axis, radii) = resample(&dense, rb, rb * rng.random_range(0.35..0.6), ring_step);
             let m = new_mesh(&mut meshes, format!("branch{count}"));
             count += 1;
             let cap = rng.random_bool(0.5);
