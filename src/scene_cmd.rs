@@ -217,7 +217,13 @@ fn print_import(ms: f64, report: &ImportReport) {
         report.skeleton_ms,
         report.meshes.len()
     );
-    for m in &report.meshes {
+    const SHOWN: usize = 12;
+    let more = |n: usize, what: &str| {
+        if n > SHOWN {
+            println!("  … {} more {what} (--json lists all)", n - SHOWN);
+        }
+    };
+    for m in report.meshes.iter().take(SHOWN) {
         println!(
             "  mesh {:>3} {:<20} {:>7} triangles, {:>3} parts, {:>3} chains, {} instance(s){}",
             m.mesh,
@@ -233,7 +239,8 @@ fn print_import(ms: f64, report: &ImportReport) {
             }
         );
     }
-    for i in &report.instances {
+    more(report.meshes.len(), "meshes");
+    for i in report.instances.iter().take(SHOWN) {
         println!(
             "  node {:>3} {:<20} mesh {:>3}: {:>3} supports ({} trunks, {} branches), \
              {:.1} m grippable, {:.1} m too thin/short",
@@ -247,6 +254,7 @@ fn print_import(ms: f64, report: &ImportReport) {
             i.ungrippable_m
         );
     }
+    more(report.instances.len(), "nodes");
     for w in &report.warnings {
         println!("warning: {w}");
     }
