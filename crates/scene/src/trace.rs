@@ -800,10 +800,8 @@ mod surface_tests {
     #[test]
     fn closest_on_triangle_regions() {
         let t = [Vec3::ZERO, Vec3::X, Vec3::Y];
-        assert_eq!(
-            closest_on_triangle(Vec3::new(0.2, 0.2, 1.0), t),
-            Vec3::new(0.2, 0.2, 0.0)
-        );
+        let inside = closest_on_triangle(Vec3::new(0.2, 0.2, 1.0), t);
+        assert!((inside - Vec3::new(0.2, 0.2, 0.0)).length() < 1e-6);
         assert_eq!(
             closest_on_triangle(Vec3::new(-1.0, -1.0, 0.0), t),
             Vec3::ZERO

@@ -130,14 +130,14 @@ fn import_checked(
     }
     trim_embedded(&mut supports, &made);
     if supports.is_empty() {
-        if !report.warnings.is_empty() {
-            return Err(ctx.err(format!(
-                "no usable supports (trunks or branches) found: {}",
-                report.warnings.join("; ")
-            )));
-        }
+        let detail = if report.warnings.is_empty() {
+            String::new()
+        } else {
+            format!(": {}", report.warnings.join("; "))
+        };
         return Err(SceneError::NoSupports {
             source_name: file.to_string(),
+            detail,
         });
     }
     let scene = Scene::new(supports).map_err(|e| ctx.err(e.to_string()))?;
