@@ -305,3 +305,102 @@ fn coarse_and_tiny_tubes_never_give_nan_or_zero_radius() {
         }
     }
 }
+
+/// An open tube of radius `r` along the polyline `axis` (rings at its nodes,
+/// mitred at corners: each ring lies in the plane bisecting the corner).
+fn tube_along(axis: &[Vec3], r: f32, sides: u32) -> RawMesh {
+    let mut m = RawMesh::default();
+    let n = axis.len();
+    let mut u = (axis[1] - axis[0]).normalize().any_orthonormal_vector();
+    for i in 0..n {
+        let t_in = (axis[i] - axis[i.saturating_sub(1)]).normalize_or_zero();
+        let t_out = (axis[(i + 1).min(n - 1)] - axis[i]).normalize_or_zero();
+        let t = (t_in + t_out).normalize();
+        u = (u - t * u.dot(t)).normalize();
+        let v = t.cross(u);
+        // Mitre: stretch the ring across the corner so both tubes stay round.
+        let stretch = 1.0 / t_in.dot(t).max(t_out.dot(t)).max(0.3);
+        let bend = if t_in != Vec3::ZERO && t_out != Vec3::ZERO && t_in.dot(t_out) < 0.9999 {
+            (t_out - t_in).normalize()
+        } else {
+            Vec3::ZERO
+        };
+        for j in 0..sides {
+            let a = j as f32 / sides as f32 * std::f32::consts::TAU;
+            let d = u * a.cos() + v * a.sin();
+            let along_bend = d.dot(bend);
+            m.positions
+                .push(axis[i] + (d + bend * along_bend * (stretch - 1.0)) * r);
+        }
+    }
+    for k in 0..n as u32 - 1 {
+        for j in 0..sides {
+            let j1 = (j + 1) % sides;
+            let (a, b, c, d) = (
+                k * sides + j,
+                k * sides + j1,
+                (k + 1) * sides + j1,
+                (k + 1) * sides + j,
+            );
+            m.triangles.push([a, b, c]);
+            m.triangles.push([a, c, d]);
+        }
+    }
+    m
+}
+
+#[test]
+fn sharp_kink_is_followed() {
+    // 1.5 m level, then a 50° kink, then 1.5 m on; rings every 5 cm.
+    let corner = Vec3::new(1.5, 1.0, 0.0);
+    let dir2 = Vec3::new(50f32.to_radians().cos(), 0.0, 50f32.to_radians().sin());
+    let mut axis: Vec<Vec3> = (0..=30)
+        .map(|k| Vec3::new(k as f32 * 0.05, 1.0, 0.0))
+        .collect();
+    axis.extend((1..=30).map(|k| corner + dir2 * (k as f32 * 0.05)));
+    let r = 0.05;
+    let (scene, _) = import(&[tube_along(&axis, r, 12)], &[place(0, "kinked", 1.0)]).unwrap();
+    assert_sane(&scene);
+    let nodes: Vec<(Vec3, f32)> = scene
+        .supports()
+        .iter()
+        .flat_map(|s| s.nodes.iter().copied().zip(s.radii.iter().copied()))
+        .collect();
+    let to_truth = |p: Vec3| {
+        axis.windows(2)
+            .map(|w| {
+                slothsim_scene::closest_on_segment(w[0], w[1], p)
+                    .0
+                    .distance(p)
+            })
+            .fold(f32::INFINITY, f32::min)
+    };
+    for &(p, rad) in &nodes {
+        if p.distance(corner) < 2.0 * r {
+            continue;
+        }
+        assert!(
+            to_truth(p) < 0.01,
+            "node {p} is {} m off the axis",
+            to_truth(p)
+        );
+        assert!((rad - r).abs() < 0.1 * r, "node {p}: radius {rad}");
+    }
+    // The skeleton turns at the kink: a node within 2 cm of the corner.
+    let nearest = nodes
+        .iter()
+        .map(|(p, _)| p.distance(corner))
+        .fold(f32::INFINITY, f32::min);
+    assert!(
+        nearest < 0.02,
+        "closest node to the kink is {nearest} m away"
+    );
+    // Both legs are covered end to end.
+    for end in [axis[0], axis[axis.len() - 1]] {
+        let d = nodes
+            .iter()
+            .map(|(p, _)| p.distance(end))
+            .fold(f32::INFINITY, f32::min);
+        assert!(d < 0.02, "end {end} not reached ({d} m)");
+    }
+}
