@@ -499,7 +499,7 @@ fn section(
                 hi = hi.max(d);
             }
         }
-        if !(lo >= MIN_ROUNDNESS * hi) {
+        if lo.is_nan() || lo < MIN_ROUNDNESS * hi {
             continue;
         }
         let d = centre.distance(c);
