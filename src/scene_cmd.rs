@@ -1,13 +1,13 @@
 //! `slothsim scene …`: export presets and forests to glTF, describe scenes.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use anyhow::{Context, Result, bail};
 use clap::{Args, Subcommand};
 use serde::Serialize;
 use slothsim::scene::{
-    Bounds, BvhStats, ForestConfig, Preset, PresetKind, Scene, TraceScene, generate_forest,
-    read_scene, write_scene,
+    Bounds, BvhStats, ForestConfig, ImportReport, Preset, PresetKind, Scene, TraceScene,
+    generate_forest, read_scene_report, write_scene,
 };
 
 #[derive(Subcommand)]
@@ -133,6 +133,12 @@ struct SceneInfo {
     trunk_length_m: f32,
     branch_length_m: f32,
     bvh: BvhStats,
+    /// Import time (ms) of a file: parse, skeletonise, build supports.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    import_ms: Option<f64>,
+    /// What the import made of each mesh and node (files only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    import: Option<ImportReport>,
 }
 
 fn describe(source: String, scene: Scene) -> SceneInfo {
@@ -150,16 +156,22 @@ fn describe(source: String, scene: Scene) -> SceneInfo {
         trunk_length_m,
         branch_length_m,
         bvh: traces.stats(),
+        import_ms: None,
+        import: None,
     }
-}
-
-fn load(file: &Path) -> Result<Scene> {
-    Ok(read_scene(file)?)
 }
 
 fn info(args: InfoArgs) -> Result<()> {
     let info = match &args.file {
-        Some(file) => describe(file.display().to_string(), load(file)?),
+        Some(file) => {
+            let t0 = std::time::Instant::now();
+            let (scene, report) = read_scene_report(file)?;
+            let import_ms = t0.elapsed().as_secs_f64() * 1e3;
+            let mut info = describe(file.display().to_string(), scene);
+            info.import_ms = Some(import_ms);
+            info.import = Some(report);
+            info
+        }
         None => {
             let cfg = args.forest.config()?;
             let source = format!(
@@ -191,6 +203,59 @@ fn info(args: InfoArgs) -> Result<()> {
             "bvh        {} primitives, {} nodes, {} leaves, depth {}, built in {:.2} ms",
             info.bvh.primitives, info.bvh.nodes, info.bvh.leaves, info.bvh.depth, info.bvh.build_ms
         );
+        if let (Some(ms), Some(report)) = (info.import_ms, &info.import) {
+            print_import(ms, report);
+        }
     }
     Ok(())
+}
+
+/// Per-mesh and per-instance lines of an import, then its warnings.
+fn print_import(ms: f64, report: &ImportReport) {
+    println!(
+        "import     {ms:.1} ms ({:.1} ms welding and skeletonising {} meshes, each once)",
+        report.skeleton_ms,
+        report.meshes.len()
+    );
+    const SHOWN: usize = 12;
+    let more = |n: usize, what: &str| {
+        if n > SHOWN {
+            println!("  … {} more {what} (--json lists all)", n - SHOWN);
+        }
+    };
+    for m in report.meshes.iter().take(SHOWN) {
+        println!(
+            "  mesh {:>3} {:<20} {:>7} triangles, {:>3} parts, {:>3} chains, {} instance(s){}",
+            m.mesh,
+            m.name.as_deref().unwrap_or("-"),
+            m.triangles,
+            m.parts,
+            m.chains,
+            m.instances,
+            if m.non_manifold_edges > 0 {
+                format!(", {} non-manifold edges", m.non_manifold_edges)
+            } else {
+                String::new()
+            }
+        );
+    }
+    more(report.meshes.len(), "meshes");
+    for i in report.instances.iter().take(SHOWN) {
+        println!(
+            "  node {:>3} {:<20} mesh {:>3}: {:>3} supports ({} trunks, {} branches), \
+             {:.1} m grippable, {:.1} m too thin/short",
+            i.node,
+            i.name.as_deref().unwrap_or("-"),
+            i.mesh,
+            i.supports,
+            i.trunks,
+            i.branches,
+            i.grippable_m,
+            i.ungrippable_m
+        );
+    }
+    more(report.instances.len(), "nodes");
+    for w in &report.warnings {
+        println!("warning: {w}");
+    }
 }

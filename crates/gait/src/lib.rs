@@ -17,7 +17,7 @@ pub mod sloth;
 
 pub use config::{ConfigError, LocomotionConfig, Profile, Sequence};
 pub use crowd::{CrowdGrid, HashedPoint};
-pub use path::{Adjacency, AxisPoint, axis_at, project};
+pub use path::{Adjacency, AxisPoint, axis_at, project, surface_gap};
 pub use rigdata::RigData;
 pub use sloth::{
     BodyMemo, Fallback, Grip, LimbPhase, LimbState, Sloth, SolveMemo, SpawnHint, Status,

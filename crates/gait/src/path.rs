@@ -54,6 +54,23 @@ pub fn project(s: &Support, p: Vec3) -> AxisPoint {
     axis_at(s, best.1)
 }
 
+/// How far [`surface_gap`] looks for an imported mesh's triangles (m).
+const SURFACE_GAP_SEARCH_M: f32 = 0.05;
+
+/// Gap between `p` and the real surface of support `s`: the distance to its
+/// triangles for an imported mesh (whose axis and radii are only a guide;
+/// at least 5 cm when none is that close), else to its capsules.
+pub fn surface_gap(query: SceneQuery<'_>, s: &Support, p: Vec3) -> f32 {
+    let a = project(s, p);
+    let model = (a.point.distance(p) - a.radius).abs();
+    if s.mesh.is_none() {
+        return model;
+    }
+    query
+        .surface_distance(s.id, p, SURFACE_GAP_SEARCH_M)
+        .unwrap_or(model.max(SURFACE_GAP_SEARCH_M))
+}
+
 /// Which supports touch or nearly touch which: `neighbours(id)` lists the
 /// supports whose surfaces come within `gap` of it. Built once (static forest).
 #[derive(Clone, Debug, Default)]

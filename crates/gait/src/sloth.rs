@@ -3249,14 +3249,13 @@ impl Sloth {
         let limbs: [LimbObservation; 4] = std::array::from_fn(|li| {
             let l = &self.limbs[li];
             let s = scene.support(l.grip.support);
-            let a = project(s, l.effector);
             LimbObservation {
                 planted: l.phase != LimbPhase::Swinging,
                 grip_ws: l.grip.point,
                 effector_ws: l.effector,
                 root_ws: l.root,
                 limb_length: w.rig.chains[li].reach(),
-                surface_gap: (a.point.distance(l.effector) - a.radius).abs(),
+                surface_gap: crate::path::surface_gap(w.query, s, l.effector),
                 limit_violation: w.rig.chains[li].limit_violation(&l.pose),
                 support: l.grip.support,
             }

@@ -17,10 +17,12 @@ pub enum SceneError {
         detail: String,
     },
     /// A scene has no supports at all.
-    #[error("{source_name}: no usable supports (trunks or branches) found")]
+    #[error("{source_name}: no usable supports (trunks or branches) found{detail}")]
     NoSupports {
         /// File (or `<memory>`) the scene came from.
         source_name: String,
+        /// Why, when the import knows (`: ` and its warnings, naming nodes), else empty.
+        detail: String,
     },
     /// A parameter (preset angle, forest config …) is outside its allowed range.
     #[error("`{field}` = {value} is outside the allowed range {allowed}")]

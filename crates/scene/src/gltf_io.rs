@@ -55,6 +55,12 @@
 mod export;
 mod fit;
 mod import;
+mod mesh_import;
+mod skeleton;
+
+pub use mesh_import::{
+    ImportReport, InstanceStats, MIN_GRIP_LENGTH_M, MIN_GRIP_RADIUS_M, MeshStats,
+};
 
 use std::path::Path;
 
@@ -143,6 +149,15 @@ pub fn write_scene(scene: &Scene, path: &Path) -> Result<(), SceneError> {
 /// [`SceneError::Gltf`] for malformed files, bad extras, unreadable buffers
 /// (naming file, node and field); [`SceneError::NoSupports`] if nothing usable remains.
 pub fn read_scene(path: &Path) -> Result<Scene, SceneError> {
+    read_scene_report(path).map(|(scene, _)| scene)
+}
+
+/// [`read_scene`], with what the import made of each mesh and node, and its
+/// warnings (see [`ImportReport`]).
+///
+/// # Errors
+/// As [`read_scene`].
+pub fn read_scene_report(path: &Path) -> Result<(Scene, ImportReport), SceneError> {
     let bytes = std::fs::read(path).map_err(|source| SceneError::Io {
         path: path.to_path_buf(),
         source,
@@ -162,11 +177,22 @@ pub fn read_scene(path: &Path) -> Result<Scene, SceneError> {
 /// # Errors
 /// As [`read_scene`], with [`SceneError::Gltf`] for external buffer references.
 pub fn import_slice(bytes: &[u8], source_name: &str) -> Result<Scene, SceneError> {
+    import::import(bytes, source_name, None).map(|(scene, _)| scene)
+}
+
+/// [`import_slice`] with the [`ImportReport`].
+///
+/// # Errors
+/// As [`import_slice`].
+pub fn import_slice_report(
+    bytes: &[u8],
+    source_name: &str,
+) -> Result<(Scene, ImportReport), SceneError> {
     import::import(bytes, source_name, None)
 }
 
 /// Wraps JSON and binary chunks in a GLB container (header, 4-byte padded chunks).
-fn glb_container(json: &[u8], bin: &[u8]) -> Vec<u8> {
+pub(crate) fn glb_container(json: &[u8], bin: &[u8]) -> Vec<u8> {
     let pad = |n: usize| (4 - n % 4) % 4;
     let json_len = json.len() + pad(json.len());
     let bin_len = bin.len() + pad(bin.len());

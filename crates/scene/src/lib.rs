@@ -10,10 +10,15 @@ mod model;
 mod presets;
 mod primitive;
 mod trace;
+pub mod treegen;
 
 pub use error::{SceneError, TraceError};
 pub use forest::{ForestConfig, default_forest, generate_forest};
-pub use gltf_io::{export_glb, export_gltf_json, import_slice, read_scene, write_scene};
+pub use gltf_io::{
+    ImportReport, InstanceStats, MIN_GRIP_LENGTH_M, MIN_GRIP_RADIUS_M, MeshStats, export_glb,
+    export_gltf_json, import_slice, import_slice_report, read_scene, read_scene_report,
+    write_scene,
+};
 pub use model::{
     Bounds, Scene, Support, SupportId, SupportKind, TRUNK_TILT_DEG, TriMesh, closest_on_segment,
     tilt_of,

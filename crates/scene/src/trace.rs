@@ -605,6 +605,43 @@ impl<'a> SceneQuery<'a> {
         Ok(())
     }
 
+    /// Distance from `p` to the surface of `support` (its triangles, or its
+    /// capsules), looking no farther than `max` metres; `None` when none of
+    /// its surface is that close. This is the grip gap the judge measures.
+    pub fn surface_distance(&self, support: SupportId, p: Vec3, max: f32) -> Option<f32> {
+        if !(p.is_finite() && max.is_finite() && max >= 0.0) {
+            return None;
+        }
+        let prims = &self.traces.prims;
+        let (lo, hi) = (p - Vec3::splat(max), p + Vec3::splat(max));
+        let mut best = f32::INFINITY;
+        let mut visit = Overlap {
+            lo: [0, 1, 2].map(|a| Vec4::splat(lo[a])),
+            hi: [0, 1, 2].map(|a| Vec4::splat(hi[a])),
+            on_prim: |i: u32| {
+                let d = match prims[i as usize] {
+                    Primitive::Tri { v, support: s } if s == support => {
+                        closest_on_triangle(p, v).distance(p)
+                    }
+                    Primitive::Cone {
+                        a,
+                        b,
+                        ra,
+                        rb,
+                        support: s,
+                    } if s == support => {
+                        let (q, t) = crate::closest_on_segment(a, b, p);
+                        (q.distance(p) - (ra + (rb - ra) * t)).abs()
+                    }
+                    _ => f32::INFINITY,
+                };
+                best = best.min(d);
+            },
+        };
+        walk(&self.traces.nodes, 0, &mut visit);
+        (best <= max).then_some(best)
+    }
+
     /// Runs many traces in parallel (rayon); `out[i]` answers `reqs[i]`.
     ///
     /// # Panics
@@ -716,4 +753,63 @@ fn prim_overlaps_local_box(p: &Primitive, to_local: &(Quat, Vec3), half: Vec3) -
         },
     };
     lp.overlaps_box(-half, half)
+}
+
+/// Closest point to `p` on triangle `v` (Ericson, Real-Time Collision Detection 5.1.5).
+fn closest_on_triangle(p: Vec3, v: [Vec3; 3]) -> Vec3 {
+    let [a, b, c] = v;
+    let (ab, ac, ap) = (b - a, c - a, p - a);
+    let (d1, d2) = (ab.dot(ap), ac.dot(ap));
+    if d1 <= 0.0 && d2 <= 0.0 {
+        return a;
+    }
+    let bp = p - b;
+    let (d3, d4) = (ab.dot(bp), ac.dot(bp));
+    if d3 >= 0.0 && d4 <= d3 {
+        return b;
+    }
+    let vc = d1 * d4 - d3 * d2;
+    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+        return a + ab * (d1 / (d1 - d3));
+    }
+    let cp = p - c;
+    let (d5, d6) = (ab.dot(cp), ac.dot(cp));
+    if d6 >= 0.0 && d5 <= d6 {
+        return c;
+    }
+    let vb = d5 * d2 - d1 * d6;
+    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+        return a + ac * (d2 / (d2 - d6));
+    }
+    let va = d3 * d6 - d5 * d4;
+    if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
+        return b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)));
+    }
+    let denom = va + vb + vc;
+    if denom.abs() <= f32::MIN_POSITIVE {
+        return a;
+    }
+    let (v2, w2) = (vb / denom, vc / denom);
+    a + ab * v2 + ac * w2
+}
+
+#[cfg(test)]
+mod surface_tests {
+    use super::*;
+
+    #[test]
+    fn closest_on_triangle_regions() {
+        let t = [Vec3::ZERO, Vec3::X, Vec3::Y];
+        let inside = closest_on_triangle(Vec3::new(0.2, 0.2, 1.0), t);
+        assert!((inside - Vec3::new(0.2, 0.2, 0.0)).length() < 1e-6);
+        assert_eq!(
+            closest_on_triangle(Vec3::new(-1.0, -1.0, 0.0), t),
+            Vec3::ZERO
+        );
+        assert_eq!(closest_on_triangle(Vec3::new(2.0, -0.5, 0.0), t), Vec3::X);
+        let e = closest_on_triangle(Vec3::new(0.5, -1.0, 0.0), t);
+        assert!((e - Vec3::new(0.5, 0.0, 0.0)).length() < 1e-6);
+        let h = closest_on_triangle(Vec3::new(1.0, 1.0, 0.0), t);
+        assert!((h - Vec3::new(0.5, 0.5, 0.0)).length() < 1e-6);
+    }
 }

@@ -794,7 +794,7 @@ fn file_without_usable_supports_is_no_supports() {
     let empty = doc.node(json!({"name": "camera rig"}));
     let err = import_slice(&doc.glb(&[empty]), "bare.glb").unwrap_err();
     assert!(
-        matches!(&err, SceneError::NoSupports { source_name } if source_name == "bare.glb"),
+        matches!(&err, SceneError::NoSupports { source_name, .. } if source_name == "bare.glb"),
         "{err:?}"
     );
     assert!(err.to_string().contains("bare.glb"));

@@ -33,8 +33,6 @@ pub(super) struct FittedPart {
     pub nodes: Vec<Vec3>,
     /// Radius per node.
     pub radii: Vec<f32>,
-    /// Unit axis direction (first → last node).
-    pub dir: Vec3,
     /// The part's triangles, compactly re-indexed.
     pub mesh: TriMesh,
 }
@@ -253,7 +251,6 @@ pub(super) fn fit_part(positions: &[Vec3], triangles: &[[u32; 3]]) -> Option<Fit
     Some(FittedPart {
         nodes,
         radii: radii.into_iter().map(|r| r as f32).collect(),
-        dir: dir.as_vec3(),
         mesh,
     })
 }

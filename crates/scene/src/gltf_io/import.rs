@@ -7,8 +7,10 @@ use glam::{Mat4, Vec3};
 use serde_json::Value;
 
 use super::EXTRAS_KEY;
-use super::fit::{fit_part, split_parts, weld};
-use crate::{Scene, SceneError, Support, SupportKind, TriMesh, tilt_of};
+use super::mesh_import::{
+    ImportReport, MeshSkeleton, instance_supports, skeletonise_mesh, trim_embedded,
+};
+use crate::{Scene, SceneError, Support, SupportKind, TriMesh};
 
 /// Shortest axis segment accepted from extras (same limit as `Scene::new`).
 const MIN_SEGMENT: f32 = 1e-4;
@@ -30,7 +32,11 @@ impl Ctx<'_> {
 
 /// Parses `bytes` (GLB or JSON glTF) into a scene. `base` is the directory
 /// external buffers are resolved against; `None` allows only embedded data.
-pub(super) fn import(bytes: &[u8], file: &str, base: Option<&Path>) -> Result<Scene, SceneError> {
+pub(super) fn import(
+    bytes: &[u8],
+    file: &str,
+    base: Option<&Path>,
+) -> Result<(Scene, ImportReport), SceneError> {
     // Known panics of the `gltf` crate on malformed input are checked for up
     // front; this is the last resort for unknown ones.
     std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
@@ -47,7 +53,11 @@ pub(super) fn import(bytes: &[u8], file: &str, base: Option<&Path>) -> Result<Sc
 /// Detail of the error returned when the `gltf` crate panicked.
 const PARSER_PANIC: &str = "malformed glTF: the glTF reader failed on this file";
 
-fn import_checked(bytes: &[u8], file: &str, base: Option<&Path>) -> Result<Scene, SceneError> {
+fn import_checked(
+    bytes: &[u8],
+    file: &str,
+    base: Option<&Path>,
+) -> Result<(Scene, ImportReport), SceneError> {
     let gltf_err = |detail: String| SceneError::Gltf {
         file: file.to_string(),
         detail,
@@ -66,6 +76,9 @@ fn import_checked(bytes: &[u8], file: &str, base: Option<&Path>) -> Result<Scene
     };
 
     let mut supports = Vec::new();
+    let mut report = ImportReport::default();
+    let mut made: Vec<usize> = Vec::new();
+    let mut skeletons: std::collections::HashMap<usize, MeshSkeleton> = Default::default();
     for (node, world) in walk(&document) {
         let label = node_label(&node);
         if !world.is_finite() {
@@ -76,15 +89,59 @@ fn import_checked(bytes: &[u8], file: &str, base: Option<&Path>) -> Result<Scene
             Some(block) => {
                 supports.push(tagged_support(&ctx, &node, &mesh, world, &block, &label)?);
             }
-            None => supports.extend(mesh_supports(&ctx, &node, &mesh, world, &label)?),
+            None => {
+                if let std::collections::hash_map::Entry::Vacant(slot) =
+                    skeletons.entry(mesh.index())
+                {
+                    let (positions, triangles) =
+                        read_triangles(&ctx, &mesh, Mat4::IDENTITY, &label)?;
+                    let mesh_label = match mesh.name() {
+                        Some(n) => format!("mesh {} `{n}` (first placed by {label})", mesh.index()),
+                        None => format!("mesh {} (first placed by {label})", mesh.index()),
+                    };
+                    let skel = skeletonise_mesh(
+                        mesh.index(),
+                        mesh.name(),
+                        &positions,
+                        &triangles,
+                        &mesh_label,
+                        &mut report,
+                    );
+                    slot.insert(skel);
+                }
+                let skel = &skeletons[&mesh.index()];
+                let first = supports.len();
+                let base_name = node.name().or_else(|| mesh.name());
+                let tag = base_name.and_then(kind_from_name);
+                supports.extend(instance_supports(
+                    skel,
+                    node.index(),
+                    node.name(),
+                    mesh.index(),
+                    base_name,
+                    tag,
+                    world,
+                    &label,
+                    &mut report,
+                ));
+                made.extend(first..supports.len());
+            }
         }
     }
+    trim_embedded(&mut supports, &made);
     if supports.is_empty() {
+        let detail = if report.warnings.is_empty() {
+            String::new()
+        } else {
+            format!(": {}", report.warnings.join("; "))
+        };
         return Err(SceneError::NoSupports {
             source_name: file.to_string(),
+            detail,
         });
     }
-    Scene::new(supports).map_err(|e| ctx.err(e.to_string()))
+    let scene = Scene::new(supports).map_err(|e| ctx.err(e.to_string()))?;
+    Ok((scene, report))
 }
 
 /// Every primitive's POSITION attribute must name an existing accessor.
@@ -398,44 +455,6 @@ fn is_generated_name(name: &str) -> bool {
 /// Cube root of |det| of the linear part: the scale applied to radii.
 fn mean_scale(world: Mat4) -> f32 {
     glam::Mat3::from_mat4(world).determinant().abs().cbrt()
-}
-
-/// Supports fitted to the node's triangles, one per connected part.
-fn mesh_supports(
-    ctx: &Ctx,
-    node: &gltf::Node,
-    mesh: &gltf::Mesh,
-    world: Mat4,
-    label: &str,
-) -> Result<Vec<Support>, SceneError> {
-    let (positions, triangles) = read_triangles(ctx, mesh, world, label)?;
-    if triangles.is_empty() {
-        return Ok(Vec::new());
-    }
-    let base_name = node.name().or_else(|| mesh.name()).map(str::to_string);
-    let tag = base_name.as_deref().and_then(kind_from_name);
-
-    let (welded, tris) = weld(&positions, &triangles);
-    let fitted: Vec<_> = split_parts(welded.len(), &tris)
-        .iter()
-        .filter_map(|part| fit_part(&welded, part))
-        .collect();
-    let many = fitted.len() > 1;
-    Ok(fitted
-        .into_iter()
-        .enumerate()
-        .map(|(k, part)| {
-            let mut support = Support::new(part.nodes, part.radii).with_mesh(part.mesh);
-            match tag {
-                Some(kind) => support = support.with_kind(kind),
-                None => support.kind = SupportKind::from_tilt(tilt_of(part.dir)),
-            }
-            support.name = base_name
-                .as_ref()
-                .map(|n| if many { format!("{n}/{k}") } else { n.clone() });
-            support
-        })
-        .collect())
 }
 
 /// `trunk…` / `branch…` (case-insensitive) tags the kind.
