@@ -1,6 +1,7 @@
 //! The `slothsim` command line.
 
 mod bench_cmd;
+mod export_cmd;
 mod plots;
 mod run_cmd;
 mod scenario_cmd;
@@ -33,6 +34,8 @@ enum Command {
     Matrix(scenario_cmd::MatrixArgs),
     /// Re-draw the top-down plot (topdown.png) from a saved state.
     Plot(plots::PlotArgs),
+    /// Write a saved state's instant as glTF (crowd.glb: forest and posed, skinned sloths).
+    Export(export_cmd::ExportArgs),
     /// CI: check that PNG plots exist and are not blank (exit 1 otherwise).
     #[command(hide = true)]
     PlotCheck(plots::PlotCheckArgs),
@@ -57,6 +60,7 @@ fn main() -> ExitCode {
         Command::Run(args) => run_cmd::run(args),
         Command::Bench(args) => bench_cmd::run(args),
         Command::Plot(args) => plots::plot(args),
+        Command::Export(args) => export_cmd::export(args),
         Command::PlotCheck(args) => plots::plot_check(args),
     };
     match result {

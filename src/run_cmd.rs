@@ -8,10 +8,11 @@ use anyhow::{Context, Result, bail};
 use clap::Args;
 use slothsim::rig::Rig;
 use slothsim::scene::{Scene, generate_forest, read_scene};
+use slothsim::sim::record::{RecordSelection, Sampler};
 use slothsim::sim::snapshot::CrowdRecorder;
 use slothsim::sim::{
-    Crowd, CrowdSpec, CrowdStats, ForestSource, StageTimings, forest_for, init_compute_pool,
-    scene_hash, write_atomically,
+    Crowd, CrowdSpec, CrowdStats, ForestSource, Locomotion, StageTimings, forest_for,
+    init_compute_pool, scene_hash, write_atomically,
 };
 
 use crate::scenario_cmd::{ProfileArg, load_config};
@@ -67,6 +68,8 @@ pub struct RunArgs {
     /// The sloth whose gait and step-search traces are plotted.
     #[arg(long, default_value_t = 0)]
     focus: u32,
+    #[command(flatten)]
+    record: crate::export_cmd::RecordArgs,
 }
 
 /// Builds the crowd: fresh, or from a checkpoint.
@@ -161,6 +164,10 @@ pub fn run(args: RunArgs) -> Result<bool> {
     if args.threads == Some(0) {
         bail!("--threads must be at least 1");
     }
+    if args.load_state.is_none() {
+        args.record.check_hz(args.dt)?;
+    }
+    args.record.selection(RecordSelection::All)?;
     prepare_out(&args.out)?;
     let threads = init_compute_pool(args.threads);
     // Spawning uses rayon; give it the same number of threads.
@@ -188,14 +195,27 @@ pub fn run(args: RunArgs) -> Result<bool> {
     // Plot samples (trails every second, the focus sloth's gait and traces)
     // are read after each tick, outside the stage timings.
     let mut recorder = (!args.no_plots).then(|| CrowdRecorder::new(&crowd, args.focus, 1.0));
+    // So are the recording's samples (crowd.glb, trajectories.csv).
+    let mut sampler = crate::export_cmd::start_crowd(
+        &args.record,
+        &crowd,
+        &rig,
+        args.focus,
+        &args.out,
+        args.seconds,
+    )?;
     let t1 = Instant::now();
-    simulate(&mut crowd, frames, recorder.as_mut());
+    simulate(&mut crowd, frames, recorder.as_mut(), sampler.as_mut());
     let wall_s = t1.elapsed().as_secs_f64();
     let stats = crowd.stats(threads);
     if let Some(path) = &args.save_state {
         crowd.save_state(path)?;
     }
-    write_outputs(&args.out, &stats, crowd.timings())?;
+    let scene = crowd.world().resource::<Locomotion>().traces.scene();
+    let record = sampler
+        .map(|s| crate::export_cmd::finish(s, scene, &args.out))
+        .transpose()?;
+    write_outputs(&args.out, &stats, crowd.timings(), record.as_ref())?;
     print_summary(&stats, wall_s, &args.out);
     if let Some(rec) = &mut recorder {
         rec.finish(&crowd);
@@ -206,7 +226,12 @@ pub fn run(args: RunArgs) -> Result<bool> {
 }
 
 /// Runs `frames` ticks with a progress bar on a terminal, plain lines otherwise.
-fn simulate(crowd: &mut Crowd, frames: u64, mut recorder: Option<&mut CrowdRecorder>) {
+fn simulate(
+    crowd: &mut Crowd,
+    frames: u64,
+    mut recorder: Option<&mut CrowdRecorder>,
+    mut sampler: Option<&mut Sampler>,
+) {
     let tty = std::io::stderr().is_terminal();
     let bar = if tty {
         let b = indicatif::ProgressBar::new(frames);
@@ -226,6 +251,9 @@ fn simulate(crowd: &mut Crowd, frames: u64, mut recorder: Option<&mut CrowdRecor
         if let Some(r) = recorder.as_deref_mut() {
             r.record(crowd);
         }
+        if let Some(s) = sampler.as_deref_mut() {
+            s.after_tick(crowd);
+        }
         let frame_ms: f64 = crowd.timings().last.iter().sum();
         if let Some(b) = &bar {
             b.set_position(f);
@@ -244,8 +272,17 @@ fn simulate(crowd: &mut Crowd, frames: u64, mut recorder: Option<&mut CrowdRecor
     }
 }
 
-fn write_outputs(dir: &Path, stats: &CrowdStats, timings: &StageTimings) -> Result<()> {
-    let json = serde_json::to_string_pretty(stats)?;
+fn write_outputs(
+    dir: &Path,
+    stats: &CrowdStats,
+    timings: &StageTimings,
+    record: Option<&crate::export_cmd::RecordStats>,
+) -> Result<()> {
+    let mut value = serde_json::to_value(stats)?;
+    if let (Some(r), Some(map)) = (record, value.as_object_mut()) {
+        map.insert("record".into(), serde_json::to_value(r)?);
+    }
+    let json = serde_json::to_string_pretty(&value)?;
     let path = dir.join("stats.json");
     write_atomically(&path, json.as_bytes())
         .with_context(|| format!("cannot write {}", path.display()))?;

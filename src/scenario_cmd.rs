@@ -10,7 +10,7 @@ use slothsim::rig::Rig;
 use slothsim::scene::{Preset, PresetKind};
 use slothsim::sim::{
     STEADY_AFTER_CYCLES, STEADY_BEFORE_STOP_CYCLES, ScenarioResult, ScenarioSpec, TrunkVariant,
-    run_scenario,
+    run_scenario, run_scenario_observed,
 };
 
 /// Gait profile names on the command line.
@@ -97,6 +97,8 @@ pub struct ScenarioArgs {
     /// Do not draw plots (topdown.png, side.png, gait.png, frame_times.png) into --out.
     #[arg(long)]
     no_plots: bool,
+    #[command(flatten)]
+    record: crate::export_cmd::RecordArgs,
 }
 
 /// The locomotion config: profile defaults, overridden by a TOML file.
@@ -264,8 +266,25 @@ pub fn scenario(args: ScenarioArgs) -> Result<bool> {
     if let Some(dir) = &args.out {
         crate::run_cmd::prepare_out(dir)?;
     }
-    let result = run_scenario(&spec, &Rig::sloth())?;
+    let rig = Rig::sloth();
+    let mut sampler = crate::export_cmd::start_scenario(
+        &args.record,
+        args.out.as_deref(),
+        &rig,
+        args.dt,
+        &format!("scenario {}", kind.name()),
+        args.seconds.unwrap_or(120.0),
+    )?;
+    let result = match sampler.as_mut() {
+        Some(s) => run_scenario_observed(&spec, &rig, &mut |sloth, loco| {
+            s.after_tick_sloth(sloth, loco);
+        })?,
+        None => run_scenario(&spec, &rig)?,
+    };
     print_result(&result);
+    if let (Some(s), Some(dir)) = (sampler, &args.out) {
+        crate::export_cmd::finish(s, &spec.preset.scene, dir)?;
+    }
     if let Some(dir) = &args.out {
         let path = write_json(dir, "scenario.json", &result)?;
         println!("wrote {}", path.display());

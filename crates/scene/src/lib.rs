@@ -13,7 +13,9 @@ mod trace;
 
 pub use error::{SceneError, TraceError};
 pub use forest::{ForestConfig, default_forest, generate_forest};
-pub use gltf_io::{export_glb, export_gltf_json, import_slice, read_scene, write_scene};
+pub use gltf_io::{
+    export_document, export_glb, export_gltf_json, import_slice, read_scene, write_scene,
+};
 pub use model::{
     Bounds, Scene, Support, SupportId, SupportKind, TRUNK_TILT_DEG, TriMesh, closest_on_segment,
     tilt_of,

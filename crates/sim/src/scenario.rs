@@ -5,8 +5,8 @@ use bevy_ecs::prelude::*;
 use glam::Vec3;
 use serde::Serialize;
 use slothsim_gait::{
-    GaitReport, GaitStats, Judge, JudgeReport, LocomotionConfig, SlothObservation, SpawnHint,
-    Status, Tolerances, Verdict,
+    GaitReport, GaitStats, Judge, JudgeReport, LocomotionConfig, Sloth, SlothObservation,
+    SpawnHint, Status, Tolerances, Verdict,
 };
 use slothsim_plot::{SideInstant, TraceLine};
 use slothsim_rig::Rig;
@@ -207,6 +207,16 @@ pub fn run_scenario(
     spec: &ScenarioSpec,
     rig: &Rig,
 ) -> Result<ScenarioResult, slothsim_gait::ConfigError> {
+    run_scenario_observed(spec, rig, &mut |_, _| {})
+}
+
+/// [`run_scenario`], showing `observe` the sloth after spawning and after
+/// every tick (read-only: recording, see [`crate::record`]).
+pub fn run_scenario_observed(
+    spec: &ScenarioSpec,
+    rig: &Rig,
+    observe: &mut dyn FnMut(&Sloth, &Locomotion),
+) -> Result<ScenarioResult, slothsim_gait::ConfigError> {
     let preset = &spec.preset;
     let variant = spec.variant;
     let (start, goal) = variant.start_goal(preset);
@@ -248,6 +258,9 @@ pub fn run_scenario(
     let mut status = Status::Moving;
     let mut frames = 0;
     let mut sloths = world.query::<(&SlothState, &Traces)>();
+    if let Ok((s, _)) = sloths.single(&world) {
+        observe(&s.0, world.resource::<Locomotion>());
+    }
     let mut after_stop = 0;
     let mut stopped_s = None;
     let mut poses = Vec::new();
@@ -260,6 +273,7 @@ pub fn run_scenario(
         let w = loco.view();
         let (s, tr) = sloths.single(&world).expect("one sloth");
         let s = &s.0;
+        observe(s, loco);
         let obs = s.observe(&w);
         if frames.is_multiple_of(pose_every) {
             poses.push(SideInstant {
