@@ -197,7 +197,7 @@ fn scenario_records_its_sloth_and_export_writes_a_checkpoint() {
         "--out",
         still.to_str().unwrap(),
     ]));
-    let (doc, _, _) = gltf::import_slice(&std::fs::read(&still).unwrap()).unwrap();
+    let (doc, _, _) = gltf::import_slice(std::fs::read(&still).unwrap()).unwrap();
     assert_eq!(doc.skins().count(), 20);
     assert_eq!(doc.animations().count(), 0, "a still pose");
 }
