@@ -23,10 +23,14 @@ pub struct RecordArgs {
     /// `run` the focus sloth and 50 others; `scenario` its sloth.
     #[arg(long, value_name = "all|none|N|ID,…")]
     pub record: Option<String>,
-    /// Recording samples per simulated second (at most the tick rate).
-    #[arg(long, default_value_t = 30.0, allow_hyphen_values = true)]
-    pub record_hz: f64,
+    /// Recording samples per simulated second, at most the tick rate [default: 30, or the
+    /// tick rate when slower].
+    #[arg(long, allow_hyphen_values = true)]
+    pub record_hz: Option<f64>,
 }
+
+/// Default recording rate (samples per simulated second).
+const DEFAULT_HZ: f64 = 30.0;
 
 /// What recording cost and wrote (the `record` block of stats.json).
 #[derive(Clone, Debug, Serialize)]
@@ -60,9 +64,14 @@ impl RecordArgs {
         }
     }
 
-    /// Checks `--record-hz` against the tick.
-    pub fn check_hz(&self, dt: f32) -> Result<()> {
-        check_hz(self.record_hz, dt).map_err(|e| anyhow!(e))
+    /// `--record-hz`, checked against the tick (default 30 Hz, or the tick
+    /// rate when that is slower).
+    pub fn hz(&self, dt: f32) -> Result<f64> {
+        let hz = self
+            .record_hz
+            .unwrap_or_else(|| DEFAULT_HZ.min(1.0 / f64::from(dt)));
+        check_hz(hz, dt).map_err(|e| anyhow!(e))?;
+        Ok(hz)
     }
 }
 
@@ -85,7 +94,7 @@ pub fn start_crowd(
     dir: &Path,
     expected_s: f32,
 ) -> Result<Option<Sampler>> {
-    args.check_hz(crowd.spec().dt)?;
+    let hz = args.hz(crowd.spec().dt)?;
     let sel = args.selection(RecordSelection::Count(51))?;
     let ids = sel
         .resolve(&body_positions(crowd), focus)
@@ -95,15 +104,7 @@ pub fn start_crowd(
     }
     let csv = TrajectoryCsv::create(&dir.join("trajectories.csv"))?;
     let name = run_name(dir, "run");
-    let mut s = Sampler::for_crowd(
-        crowd,
-        rig,
-        &ids,
-        &name,
-        args.record_hz,
-        expected_s,
-        Some(csv),
-    );
+    let mut s = Sampler::for_crowd(crowd, rig, &ids, &name, hz, expected_s, Some(csv));
     s.after_tick(crowd);
     Ok(Some(s))
 }
@@ -129,7 +130,7 @@ pub fn start_scenario(
     name: &str,
     expected_s: f32,
 ) -> Result<Option<Sampler>> {
-    args.check_hz(dt)?;
+    let hz = args.hz(dt)?;
     let sel = args.selection(RecordSelection::All)?;
     let ids = sel
         .resolve(&[glam::Vec3::ZERO], 0)
@@ -146,13 +147,7 @@ pub fn start_scenario(
     let csv = TrajectoryCsv::create(&dir.join("trajectories.csv"))?;
     let rec =
         slothsim::export::Recording::new(name, slothsim::sim::record::moved_joints(rig), &ids);
-    Ok(Some(Sampler::new(
-        rec,
-        args.record_hz,
-        dt,
-        expected_s,
-        Some(csv),
-    )))
+    Ok(Some(Sampler::new(rec, hz, dt, expected_s, Some(csv))))
 }
 
 /// Writes `dir/crowd.glb` and finishes `dir/trajectories.csv`.

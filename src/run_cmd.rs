@@ -165,7 +165,7 @@ pub fn run(args: RunArgs) -> Result<bool> {
         bail!("--threads must be at least 1");
     }
     if args.load_state.is_none() {
-        args.record.check_hz(args.dt)?;
+        args.record.hz(args.dt)?;
     }
     args.record.selection(RecordSelection::All)?;
     prepare_out(&args.out)?;

@@ -86,6 +86,14 @@ fn explicit_ids_are_recorded() {
     assert_eq!(ids.into_iter().collect::<Vec<_>>(), ["17", "3"]);
 }
 
+#[test]
+fn the_default_rate_follows_a_slower_tick() {
+    let tmp = tempfile::tempdir().unwrap();
+    let s = run(tmp.path(), &["--dt", "0.05", "--record", "2"]);
+    assert!((s["record"]["hz"].as_f64().unwrap() - 20.0).abs() < 1e-4);
+    assert_eq!(s["record"]["samples"], 41);
+}
+
 fn fails(args: &[&str], needle: &str) {
     let out = slothsim(args);
     let err = String::from_utf8_lossy(&out.stderr);
