@@ -4,6 +4,7 @@
 //! Conventions everywhere: metres, seconds, radians inside (degrees only at the
 //! edges), +Y up, right-handed (glTF axes), fixed time step.
 
+pub use slothsim_export as export;
 pub use slothsim_gait as gait;
 pub use slothsim_observe as observe;
 pub use slothsim_rig as rig;

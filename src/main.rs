@@ -2,6 +2,7 @@
 
 mod bench_cmd;
 mod cli_common;
+mod export_cmd;
 mod matrix_cmd;
 mod merge_cmd;
 mod plots;
@@ -39,6 +40,8 @@ enum Command {
     Merge(merge_cmd::MergeArgs),
     /// Re-draw the top-down plot (topdown.png) from a saved state.
     Plot(plots::PlotArgs),
+    /// Write a saved state's instant as glTF (crowd.glb: forest and posed, skinned sloths).
+    Export(export_cmd::ExportArgs),
     /// CI: check that PNG plots exist and are not blank (exit 1 otherwise).
     #[command(hide = true)]
     PlotCheck(plots::PlotCheckArgs),
@@ -76,6 +79,7 @@ fn main() -> ExitCode {
         Command::Run(args) => run_cmd::run(args, &sub("run")),
         Command::Bench(args) => bench_cmd::run(args),
         Command::Plot(args) => plots::plot(args),
+        Command::Export(args) => export_cmd::export(args),
         Command::PlotCheck(args) => plots::plot_check(args),
     };
     match result {

@@ -10,10 +10,11 @@ use clap::{ArgMatches, Args};
 use slothsim::gait::LocomotionConfig;
 use slothsim::rig::Rig;
 use slothsim::scene::{Scene, generate_forest, read_scene};
+use slothsim::sim::record::{RecordSelection, Sampler};
 use slothsim::sim::snapshot::CrowdRecorder;
 use slothsim::sim::{
-    Crowd, CrowdSpec, CrowdStats, ForestSource, StageTimings, forest_for, init_compute_pool,
-    scene_hash, write_atomically,
+    Crowd, CrowdSpec, CrowdStats, ForestSource, Locomotion, StageTimings, forest_for,
+    init_compute_pool, scene_hash, write_atomically,
 };
 
 use crate::cli_common::{ProfileArg, ShardArgs, load_checkpoint, load_config, prepare_out};
@@ -84,6 +85,8 @@ pub struct RunArgs {
     seeds: Option<String>,
     #[command(flatten)]
     shard: ShardArgs,
+    #[command(flatten)]
+    record: crate::export_cmd::RecordArgs,
 }
 
 /// The flags that decide what is simulated; `--load-state` and `--from`
@@ -310,6 +313,10 @@ pub fn run(args: RunArgs, m: &ArgMatches) -> Result<bool> {
     } else if args.shard.is_given() {
         bail!("--shard/--shards split a --seeds sweep (or a matrix); give --seeds A..B");
     }
+    if args.load_state.is_none() && args.from.is_none() {
+        args.record.hz(args.dt)?;
+    }
+    args.record.selection(RecordSelection::All)?;
     prepare_out(&args.out)?;
     let threads = init_compute_pool(args.threads);
     // Spawning uses rayon; give it the same number of threads.
@@ -321,7 +328,7 @@ pub fn run(args: RunArgs, m: &ArgMatches) -> Result<bool> {
     if let Some(from) = &args.from {
         let (plan, frames, expected) = plan_from_stats(from)?;
         let built = build(plan, &rig)?;
-        let stats = run_one(&args, built, frames, &args.out, threads, None)?;
+        let stats = run_one(&args, &rig, built, frames, &args.out, threads, None)?;
         if stats.state_hash != expected {
             eprintln!(
                 "error: state_hash {} differs from {}'s {expected}",
@@ -344,7 +351,7 @@ pub fn run(args: RunArgs, m: &ArgMatches) -> Result<bool> {
         eprintln!("state loaded in {:.1} s", t0.elapsed().as_secs_f64());
         let frames = frames_of(crowd.spec().dt);
         let built = Built { crowd, scene_hash };
-        run_one(&args, built, frames, &args.out, threads, Some(state))?;
+        run_one(&args, &rig, built, frames, &args.out, threads, Some(state))?;
         return Ok(true);
     }
     if let Some(text) = &args.seeds {
@@ -363,19 +370,20 @@ pub fn run(args: RunArgs, m: &ArgMatches) -> Result<bool> {
             prepare_out(&dir)?;
             let built = build(plan_from_flags(&args, seed)?, &rig)?;
             let frames = frames_of(built.crowd.spec().dt);
-            run_one(&args, built, frames, &dir, threads, None)?;
+            run_one(&args, &rig, built, frames, &dir, threads, None)?;
         }
         return Ok(true);
     }
     let built = build(plan_from_flags(&args, args.seed)?, &rig)?;
     let frames = frames_of(built.crowd.spec().dt);
-    run_one(&args, built, frames, &args.out, threads, None)?;
+    run_one(&args, &rig, built, frames, &args.out, threads, None)?;
     Ok(true)
 }
 
 /// Runs one crowd for `frames` and writes its outputs into `out`.
 fn run_one(
     args: &RunArgs,
+    rig: &Rig,
     built: Built,
     frames: u64,
     out: &Path,
@@ -411,14 +419,31 @@ fn run_one(
     // Plot samples (trails every second, the focus sloth's gait and traces)
     // are read after each tick, outside the stage timings.
     let mut recorder = (!args.no_plots).then(|| CrowdRecorder::new(&crowd, args.focus, 1.0));
+    // So are the recording's samples (crowd.glb, trajectories.csv).
+    let mut sampler = crate::export_cmd::start_crowd(
+        &args.record,
+        &crowd,
+        rig,
+        args.focus,
+        out,
+        frames as f32 * dt,
+    )?;
     let t1 = Instant::now();
-    simulate(&mut crowd, frames, recorder.as_mut());
+    simulate(&mut crowd, frames, recorder.as_mut(), sampler.as_mut());
     let wall_s = t1.elapsed().as_secs_f64();
     let stats = crowd.stats(threads);
     if let Some(path) = &args.save_state {
         crowd.save_state(path)?;
     }
-    write_outputs(out, &stats, &provenance, crowd.timings())?;
+    let scene = crowd.world().resource::<Locomotion>().traces.scene();
+    let record = sampler
+        .map(|s| crate::export_cmd::finish(s, scene, out))
+        .transpose()?;
+    let output = RunOutput {
+        stats: &stats,
+        record: record.as_ref(),
+    };
+    write_outputs(out, &output, &provenance, crowd.timings())?;
     print_summary(&stats, wall_s, out);
     if let Some(rec) = &mut recorder {
         rec.finish(&crowd);
@@ -428,8 +453,22 @@ fn run_one(
     Ok(stats)
 }
 
+/// `stats.json`'s body: the crowd's statistics and what recording cost.
+#[derive(serde::Serialize)]
+struct RunOutput<'a> {
+    #[serde(flatten)]
+    stats: &'a CrowdStats,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    record: Option<&'a crate::export_cmd::RecordStats>,
+}
+
 /// Runs `frames` ticks with a progress bar on a terminal, plain lines otherwise.
-fn simulate(crowd: &mut Crowd, frames: u64, mut recorder: Option<&mut CrowdRecorder>) {
+fn simulate(
+    crowd: &mut Crowd,
+    frames: u64,
+    mut recorder: Option<&mut CrowdRecorder>,
+    mut sampler: Option<&mut Sampler>,
+) {
     let tty = std::io::stderr().is_terminal();
     let bar = if tty {
         let b = indicatif::ProgressBar::new(frames);
@@ -448,6 +487,9 @@ fn simulate(crowd: &mut Crowd, frames: u64, mut recorder: Option<&mut CrowdRecor
         crowd.step();
         if let Some(r) = recorder.as_deref_mut() {
             r.record(crowd);
+        }
+        if let Some(s) = sampler.as_deref_mut() {
+            s.after_tick(crowd);
         }
         let frame_ms: f64 = crowd.timings().last.iter().sum();
         if let Some(b) = &bar {
@@ -469,7 +511,7 @@ fn simulate(crowd: &mut Crowd, frames: u64, mut recorder: Option<&mut CrowdRecor
 
 fn write_outputs(
     dir: &Path,
-    stats: &CrowdStats,
+    stats: &RunOutput,
     provenance: &Provenance,
     timings: &StageTimings,
 ) -> Result<()> {

@@ -10,7 +10,7 @@ use slothsim::rig::Rig;
 use slothsim::scene::{Preset, PresetKind};
 use slothsim::sim::{
     STEADY_AFTER_CYCLES, STEADY_BEFORE_STOP_CYCLES, ScenarioResult, ScenarioSpec, TrunkVariant,
-    run_scenario,
+    run_scenario, run_scenario_observed,
 };
 
 use crate::cli_common::{ProfileArg, load_config, prepare_out, preset_value, write_json};
@@ -91,6 +91,8 @@ pub struct ScenarioArgs {
     /// Do not draw plots (topdown.png, side.png, gait.png, frame_times.png) into --out.
     #[arg(long)]
     no_plots: bool,
+    #[command(flatten)]
+    record: crate::export_cmd::RecordArgs,
 }
 
 fn print_result(r: &ScenarioResult) {
@@ -195,8 +197,25 @@ pub fn scenario(args: ScenarioArgs) -> Result<bool> {
     if let Some(dir) = &args.out {
         prepare_out(dir)?;
     }
-    let result = run_scenario(&spec, &Rig::sloth())?;
+    let rig = Rig::sloth();
+    let mut sampler = crate::export_cmd::start_scenario(
+        &args.record,
+        args.out.as_deref(),
+        &rig,
+        args.dt,
+        &format!("scenario {}", kind.name()),
+        args.seconds.unwrap_or(120.0),
+    )?;
+    let result = match sampler.as_mut() {
+        Some(s) => run_scenario_observed(&spec, &rig, &mut |sloth, loco| {
+            s.after_tick_sloth(sloth, loco);
+        })?,
+        None => run_scenario(&spec, &rig)?,
+    };
     print_result(&result);
+    if let (Some(s), Some(dir)) = (sampler, &args.out) {
+        crate::export_cmd::finish(s, &spec.preset.scene, dir)?;
+    }
     if let Some(dir) = &args.out {
         let provenance = Provenance::here(1, Some(&spec.cfg));
         let path = write_json(dir, "scenario.json", &with_provenance(&result, &provenance))?;

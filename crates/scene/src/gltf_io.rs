@@ -83,6 +83,13 @@ pub fn export_glb(scene: &Scene) -> Vec<u8> {
     glb_container(&json, &bin)
 }
 
+/// The glTF document of `scene`: the JSON root and its binary buffer
+/// (unpadded; the root's buffer 0 when not empty), for writers that add to it
+/// (the animated crowd of `slothsim-export`). Same layout as [`export_glb`].
+pub fn export_document(scene: &Scene) -> (gltf_json::Root, Vec<u8>) {
+    export::build(scene, |_| None)
+}
+
 /// Encodes `scene` as glTF JSON with the buffer embedded as a base64 `data:` URI.
 pub fn export_gltf_json(scene: &Scene) -> String {
     let (root, _) = export::build(scene, |bin| {

@@ -15,8 +15,8 @@ pub mod treegen;
 pub use error::{SceneError, TraceError};
 pub use forest::{ForestConfig, default_forest, generate_forest};
 pub use gltf_io::{
-    ImportReport, InstanceStats, MIN_GRIP_LENGTH_M, MIN_GRIP_RADIUS_M, MeshStats, export_glb,
-    export_gltf_json, import_slice, import_slice_report, read_scene, read_scene_report,
+    ImportReport, InstanceStats, MIN_GRIP_LENGTH_M, MIN_GRIP_RADIUS_M, MeshStats, export_document,
+    export_glb, export_gltf_json, import_slice, import_slice_report, read_scene, read_scene_report,
     write_scene,
 };
 pub use model::{

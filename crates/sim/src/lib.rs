@@ -6,6 +6,7 @@
 
 pub mod baseline;
 pub mod crowd;
+pub mod record;
 pub mod scenario;
 pub mod schedule;
 pub mod snapshot;
@@ -17,7 +18,7 @@ pub use crowd::{
 };
 pub use scenario::{
     STEADY_AFTER_CYCLES, STEADY_BEFORE_STOP_CYCLES, ScenarioResult, ScenarioSpec, SteadyGait,
-    TrunkVariant, run_scenario, steady_gait,
+    TrunkVariant, run_scenario, run_scenario_observed, steady_gait,
 };
 pub use schedule::{SimSystems, StageTimings, build_schedule, init_compute_pool};
 pub use world::{

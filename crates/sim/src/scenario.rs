@@ -205,6 +205,16 @@ pub fn run_scenario(
     spec: &ScenarioSpec,
     rig: &Rig,
 ) -> Result<ScenarioResult, slothsim_gait::ConfigError> {
+    run_scenario_observed(spec, rig, &mut |_, _| {})
+}
+
+/// [`run_scenario`], showing `observe` the sloth after spawning and after
+/// every tick (read-only: recording, see [`crate::record`]).
+pub fn run_scenario_observed(
+    spec: &ScenarioSpec,
+    rig: &Rig,
+    observe: &mut dyn FnMut(&Sloth, &Locomotion),
+) -> Result<ScenarioResult, slothsim_gait::ConfigError> {
     let preset = &spec.preset;
     let variant = spec.variant;
     let (start, goal) = variant.start_goal(preset);
@@ -237,6 +247,11 @@ pub fn run_scenario(
     // The crowd's world, schedule and observer, for one sloth.
     let mut crowd = Crowd::lone(loco, sloth, spec.dt, judge);
     let entity = crowd.entity(0).expect("the lone sloth");
+    {
+        let world = crowd.world();
+        let s = &world.get::<SlothState>(entity).expect("the lone sloth").0;
+        observe(s, world.resource::<Locomotion>());
+    }
     let mut trail = Vec::new();
     let frames_max = (time_limit_s / spec.dt).ceil() as u64;
     let mut status = Status::Moving;
@@ -256,6 +271,7 @@ pub fn run_scenario(
         frames += 1;
         let world = crowd.world();
         let s = &world.get::<SlothState>(entity).expect("the lone sloth").0;
+        observe(s, world.resource::<Locomotion>());
         if frames.is_multiple_of(pose_every) {
             poses.push(pose_at(world, s));
         }
