@@ -51,7 +51,7 @@ const HANG_MAX_ROLL: f32 = std::f32::consts::FRAC_PI_2;
 /// below it until the transfer turns it (see `transfer_to_trunk`).
 const HANG_OUT_COS: f32 = 0.5;
 
-/// Words of a [`BodyKey`]: the body (position, rotation), the hang side and flag,
+/// Words of a `BodyKey`: the body (position, rotation), the hang side and flag,
 /// the transfer (flag, supports, side, away), then per limb its phase, grip
 /// point and support, and target.
 const BODY_KEY_LEN: usize = 7 + 4 + 9 + 4 * 8;
@@ -244,7 +244,7 @@ impl Sloth {
 
     /// [`Sloth::body_average`], skipped where it would change nothing: while
     /// no limb swings it is a deterministic function of the fields in a
-    /// [`BodyKey`] (and of `env` and `dt`, fixed for a run); when they hold the
+    /// `BodyKey` (and of `env` and `dt`, fixed for a run); when they hold the
     /// bits a call through `memo` left unchanged, this call would leave them
     /// unchanged again (a sloth between steps: about 40 % of the sloth-frames
     /// of a crowd). `memo` belongs to this sloth, `env` and `dt`.

@@ -98,7 +98,7 @@ pub struct Search {
     /// anywhere, so the limb re-grips behind to unlock the others.
     pub retreat: bool,
     /// Searching the goal's branch before the trunk the limb holds (see
-    /// [`Sloth::goal_branch_search`]); once exhausted, the trunk is searched.
+    /// `Sloth::goal_branch_search`); once exhausted, the trunk is searched.
     pub goal_first: bool,
 }
 
@@ -136,11 +136,11 @@ pub struct LimbState {
     pub settled_ls: Option<Vec3>,
     /// The target (chain-root frame) at which a cold restart of this planted
     /// limb's solve last failed to beat its warm solve: not tried again within
-    /// [`COLD_RETRY_MOVE`] of it (cleared when the limb swings).
+    /// `COLD_RETRY_MOVE` of it (cleared when the limb swings).
     pub cold_miss_ls: Option<Vec3>,
     /// A step this limb takes by a deadline unless its own search finds one
     /// first: another limb's step was checked with this one lifting off on
-    /// the gait clock during its swing ([`Sloth::next_lift`]).
+    /// the gait clock during its swing (`Sloth::next_lift`).
     #[serde(default)]
     pub fallback: Option<Fallback>,
 }
@@ -212,13 +212,13 @@ pub struct Sloth {
     pub hind_back_scale: f32,
     /// The side of its branch the body is on (from the paws' mean), kept
     /// while it rolls about the branch to clear a trunk: in the fork below a
-    /// branch the roll goes that way (see [`Sloth::hang_roll`]). It is
+    /// branch the roll goes that way (see `Sloth::hang_roll`). It is
     /// state, not read off the drawn body, so the step checks roll a stance
     /// the way the drawn body will.
     pub hang_side: Vec3,
     /// Off a trunk onto a branch (`transfer_to_branch`): that trunk, which
     /// the body still rolls clear of while it walks out of the fork, until
-    /// a step search starts unrolled (see [`Sloth::hang_roll`]).
+    /// a step search starts unrolled (see `Sloth::hang_roll`).
     pub hang_trunk: Option<SupportId>,
     /// Wander mode, stopped (`NoGrip`): the time it tries again (the way
     /// may have been blocked by sloths that since moved on).
@@ -323,10 +323,10 @@ pub struct Candidate {
     /// surface normal (it steps together with `limb`).
     pub pair: Option<(u8, Vec3, Vec3)>,
     /// The hind pair's share of the offset back its checks passed with (see
-    /// [`Sloth::pair_back_scale`]).
+    /// `Sloth::pair_back_scale`).
     pub back_scale: f32,
     /// The limb its checks let lift off during the swing and that limb's
-    /// committed step ([`Sloth::next_lift`]); `None`: every other limb holds.
+    /// committed step (`Sloth::next_lift`); `None`: every other limb holds.
     pub lift: Option<(u8, Grip)>,
 }
 

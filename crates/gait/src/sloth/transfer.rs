@@ -19,7 +19,7 @@ const TRANSFER_SIDE_ANGLE: f32 = std::f32::consts::FRAC_PI_3;
 /// A change between a branch and a trunk in progress (SPEC `transfer_to_trunk`,
 /// `transfer_to_branch`). On the trunk the body faces it from `side`; while
 /// the limbs move across, the body rolls about its long axis between hanging
-/// below the branch and facing the trunk (see [`Sloth::body_frame`]).
+/// below the branch and facing the trunk (see `Sloth::body_frame`).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Transfer {
     /// The support the limbs move onto.
