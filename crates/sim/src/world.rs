@@ -1,6 +1,7 @@
 //! Components, resources and world construction.
 
 use bevy_ecs::prelude::*;
+// Re-exported so `crate::world::crowd_points` (crowd.rs) keeps working; it lives in gait.
 pub use slothsim_gait::crowd_points;
 use slothsim_gait::{
     BodyMemo, CrowdGrid, HashedPoint, LocoEnv, LocoView, LocomotionConfig, Sloth, SolveMemo,
