@@ -29,7 +29,8 @@ use slothsim::sim::{
     init_compute_pool, state_hash_of, write_atomically,
 };
 
-use crate::scenario_cmd::{ProfileArg, load_config};
+use crate::cli_common::{ProfileArg, load_config};
+use crate::provenance::{Provenance, with_provenance};
 
 #[derive(Args)]
 pub struct BenchArgs {
@@ -518,7 +519,8 @@ pub fn run(args: BenchArgs) -> Result<bool> {
         println!("peak RSS {rss:.0} MiB");
     }
     if let Some(path) = &args.json {
-        let json = serde_json::to_string_pretty(&report)?;
+        let provenance = Provenance::here(threads, Some(&plan.cfg));
+        let json = serde_json::to_string_pretty(&with_provenance(&report, &provenance))?;
         write_atomically(path, json.as_bytes())
             .with_context(|| format!("cannot write {}", path.display()))?;
         println!("wrote {}", path.display());

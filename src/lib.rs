@@ -5,6 +5,9 @@
 //! edges), +Y up, right-handed (glTF axes), fixed time step.
 
 pub use slothsim_gait as gait;
+pub use slothsim_observe as observe;
 pub use slothsim_rig as rig;
 pub use slothsim_scene as scene;
 pub use slothsim_sim as sim;
+
+pub mod to_plot;

@@ -1,14 +1,18 @@
 //! The `slothsim` command line.
 
 mod bench_cmd;
+mod cli_common;
+mod matrix_cmd;
+mod merge_cmd;
 mod plots;
+mod provenance;
 mod run_cmd;
 mod scenario_cmd;
 mod scene_cmd;
 
 use std::process::ExitCode;
 
-use clap::{Parser, Subcommand};
+use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 
 /// Crowds of procedurally animated two-toed sloths climbing a forest.
 #[derive(Parser)]
@@ -30,7 +34,9 @@ enum Command {
     /// Frame and stage times of the crowd at several sizes, the largest crowd within a frame budget, and a naive baseline.
     Bench(bench_cmd::BenchArgs),
     /// Sweep every preset over its angle range (thesis Table 7); exit 0 when the thesis ranges pass.
-    Matrix(scenario_cmd::MatrixArgs),
+    Matrix(matrix_cmd::MatrixArgs),
+    /// Join the parts of a sharded sweep (`matrix --shard`, `run --seeds --shard`) into one output.
+    Merge(merge_cmd::MergeArgs),
     /// Re-draw the top-down plot (topdown.png) from a saved state.
     Plot(plots::PlotArgs),
     /// CI: check that PNG plots exist and are not blank (exit 1 otherwise).
@@ -49,12 +55,25 @@ fn main() -> ExitCode {
     unsafe {
         libc::signal(libc::SIGPIPE, libc::SIG_DFL);
     }
-    let cli = Cli::parse();
+    // Parsed through `ArgMatches` so commands can tell a flag given on the
+    // command line from its default (`ArgMatches::value_source`).
+    let matches = Cli::command().get_matches();
+    let cli = match Cli::from_arg_matches(&matches) {
+        Ok(cli) => cli,
+        Err(err) => err.exit(),
+    };
+    let sub = |name: &str| {
+        matches
+            .subcommand_matches(name)
+            .cloned()
+            .unwrap_or_default()
+    };
     let result = match cli.command {
         Command::Scene(cmd) => scene_cmd::run(cmd).map(|()| true),
         Command::Scenario(args) => scenario_cmd::scenario(args),
-        Command::Matrix(args) => scenario_cmd::matrix(args),
-        Command::Run(args) => run_cmd::run(args),
+        Command::Matrix(args) => matrix_cmd::matrix(args),
+        Command::Merge(args) => merge_cmd::merge(args),
+        Command::Run(args) => run_cmd::run(args, &sub("run")),
         Command::Bench(args) => bench_cmd::run(args),
         Command::Plot(args) => plots::plot(args),
         Command::PlotCheck(args) => plots::plot_check(args),

@@ -13,12 +13,13 @@ use slothsim::rig::Rig;
 use slothsim::scene::Scene;
 use slothsim::sim::snapshot::{CrowdRecorder, crowd_poses, crowd_traces};
 use slothsim::sim::{Crowd, ScenarioResult};
+use slothsim::to_plot;
 use slothsim_plot::{
     FrameTimes, GaitDiagram, Pixmap, SideView, TopDown, contact_intervals, draw_frame_times,
     draw_gait, draw_side, draw_topdown, save_png,
 };
 
-use crate::run_cmd::{load_checkpoint, prepare_out};
+use crate::cli_common::{load_checkpoint, prepare_out};
 
 /// Cost of one plot: drawing and writing the PNG, milliseconds.
 #[derive(Clone, Debug)]
@@ -80,8 +81,8 @@ fn gait_duration(times: &[f32]) -> f32 {
 /// The plots of a crowd run: `topdown.png`, `gait.png`, `frame_times.png`.
 pub fn run_plots(dir: &Path, crowd: &Crowd, rec: &CrowdRecorder) -> Result<Vec<PlotCost>> {
     let mut costs = Vec::new();
-    let sloths = crowd_poses(crowd);
-    let traces = rec.traces(crowd);
+    let sloths = to_plot::sloth_poses(&crowd_poses(crowd));
+    let traces = to_plot::trace_lines(&rec.traces(crowd));
     let scene = crowd.world().resource::<slothsim::sim::Locomotion>();
     let time_s = rec.gait_times.last().copied().unwrap_or(0.0);
     render(dir, "topdown.png", &mut costs, || {
@@ -120,7 +121,9 @@ pub fn scenario_plots(
 ) -> Result<Vec<PlotCost>> {
     let mut costs = Vec::new();
     let label = scenario_label(r);
-    let last = r.poses.last().map(|i| i.pose);
+    let poses = to_plot::side_instants(&r.poses);
+    let traces = to_plot::trace_lines(&r.traces);
+    let last = poses.last().map(|i| i.pose);
     let sloths: Vec<_> = last.into_iter().collect();
     let mut trail: Vec<Vec3> = r.trail.clone();
     if let Some(p) = &last {
@@ -129,8 +132,7 @@ pub fn scenario_plots(
     // The window: the path, the poses and the goal, 1 m around.
     let mut lo = Vec2::new(goal.x, goal.z);
     let mut hi = lo;
-    for p in r
-        .poses
+    for p in poses
         .iter()
         .flat_map(|i| i.pose.points().collect::<Vec<_>>())
         .chain(trail.iter().copied())
@@ -148,20 +150,20 @@ pub fn scenario_plots(
         td.sloths = &sloths;
         td.trails = &trails;
         td.focus = Some(0);
-        td.traces = &r.traces;
+        td.traces = &traces;
         td.time_s = time_s;
         td.title = label.clone();
         td.view = Some(view);
         draw_topdown(&td)
     })?;
     // Side view: up to 8 instants spread over the run, always the last one.
-    let n = r.poses.len();
+    let n = poses.len();
     let picks: Vec<_> = if n <= 8 {
-        r.poses.clone()
+        poses.clone()
     } else {
         let mut idx: Vec<usize> = (0..8).map(|k| k * (n - 1) / 7).collect();
         idx.dedup();
-        idx.into_iter().map(|i| r.poses[i]).collect()
+        idx.into_iter().map(|i| poses[i]).collect()
     };
     render(dir, "side.png", &mut costs, || {
         let mut sv = SideView::new(scene, &picks);
@@ -227,8 +229,8 @@ pub fn plot(args: PlotArgs) -> Result<bool> {
             args.focus
         );
     }
-    let sloths = crowd_poses(&crowd);
-    let traces = crowd_traces(&crowd, args.focus);
+    let sloths = to_plot::sloth_poses(&crowd_poses(&crowd));
+    let traces = to_plot::trace_lines(&crowd_traces(&crowd, args.focus));
     let loco = crowd.world().resource::<slothsim::sim::Locomotion>();
     let mut costs = Vec::new();
     render(&args.out, "topdown.png", &mut costs, || {

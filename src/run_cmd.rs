@@ -5,7 +5,9 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
-use clap::Args;
+use clap::parser::ValueSource;
+use clap::{ArgMatches, Args};
+use slothsim::gait::LocomotionConfig;
 use slothsim::rig::Rig;
 use slothsim::scene::{Scene, generate_forest, read_scene};
 use slothsim::sim::snapshot::CrowdRecorder;
@@ -14,7 +16,10 @@ use slothsim::sim::{
     scene_hash, write_atomically,
 };
 
-use crate::scenario_cmd::{ProfileArg, load_config};
+use crate::cli_common::{ProfileArg, ShardArgs, load_checkpoint, load_config, prepare_out};
+use crate::provenance::{
+    Provenance, file_sha256, read_provenance, run_provenance, with_provenance,
+};
 
 #[derive(Args)]
 pub struct RunArgs {
@@ -67,99 +72,243 @@ pub struct RunArgs {
     /// The sloth whose gait and step-search traces are plotted.
     #[arg(long, default_value_t = 0)]
     focus: u32,
+    /// Re-run the run a `stats.json` describes (its `provenance`: config,
+    /// forest, seed, sloths, time step, clearance, frames) and check that
+    /// it reaches the same `state_hash` (exit 1 when not).
+    #[arg(long, value_name = "STATS_JSON")]
+    from: Option<PathBuf>,
+    /// A seed sweep: seeds A..B (both included), each run into OUT/seed-S/.
+    /// With --shard I/N (or a Slurm / Kubernetes array index) only every
+    /// N-th seed from the I-th.
+    #[arg(long, value_name = "A..B")]
+    seeds: Option<String>,
+    #[command(flatten)]
+    shard: ShardArgs,
 }
 
-/// Builds the crowd: fresh, or from a checkpoint.
-fn build_crowd(args: &RunArgs, rig: &Rig) -> Result<Crowd> {
-    if let Some(state) = &args.load_state {
-        let explicit = std::env::args().any(|a| {
-            [
-                "--sloths",
-                "--trees",
-                "--seed",
-                "--forest-seed",
-                "--config",
-                "--profile",
-                "--dt",
-                "--clearance",
-            ]
-            .iter()
-            .any(|f| a == *f || a.starts_with(&format!("{f}=")))
-        });
-        if explicit {
-            bail!(
-                "--load-state takes the forest, config, seed, sloths and time step from the state file; drop --sloths/--trees/--seed/--forest-seed/--config/--profile/--dt/--clearance"
-            );
-        }
-        return load_checkpoint(state, args.forest.as_deref(), rig);
-    }
+/// The flags that decide what is simulated; `--load-state` and `--from`
+/// take them from their file instead.
+const INPUT_FLAGS: [&str; 8] = [
+    "sloths",
+    "trees",
+    "seed",
+    "forest_seed",
+    "config",
+    "profile",
+    "dt",
+    "clearance",
+];
+
+/// Whether flag `id` was given on the command line (not a default).
+fn given(m: &ArgMatches, id: &str) -> bool {
+    m.value_source(id) == Some(ValueSource::CommandLine)
+}
+
+/// `--flag` spelling of an argument id.
+fn flag(id: &str) -> String {
+    format!("--{}", id.replace('_', "-"))
+}
+
+/// What a run simulates, however it was asked for.
+struct Plan {
+    sloths: u32,
+    seed: u64,
+    dt: f32,
+    clearance_m: f32,
+    cfg: LocomotionConfig,
+    forest: ForestSource,
+}
+
+/// A crowd built, with the hash of its forest's supports.
+struct Built {
+    crowd: Crowd,
+    scene_hash: u64,
+}
+
+/// The plan from the flags.
+fn plan_from_flags(args: &RunArgs, seed: u64) -> Result<Plan> {
     if args.sloths <= 0 {
         bail!("--sloths must be at least 1 (got {})", args.sloths);
     }
     let sloths = u32::try_from(args.sloths).context("--sloths is too large")?;
     let cfg = load_config(args.profile, args.config.as_deref())?;
-    let (scene, source): (Scene, ForestSource) = match &args.forest {
+    let forest = match &args.forest {
         Some(path) => {
             if args.trees.is_some() || args.forest_seed.is_some() {
                 bail!("--trees and --forest-seed size the procedural forest; not with --forest");
             }
-            let scene = read_scene(path).with_context(|| format!("forest {}", path.display()))?;
-            let hash = scene_hash(&scene);
-            (
-                scene,
-                ForestSource::File {
-                    path: path.clone(),
-                    scene_hash: hash,
-                },
-            )
+            ForestSource::File {
+                path: path.clone(),
+                scene_hash: 0,
+            }
         }
         None => {
             let fc = forest_for(sloths, args.trees, args.forest_seed);
             fc.validate()?;
-            (generate_forest(&fc)?, ForestSource::Procedural(fc))
+            ForestSource::Procedural(fc)
         }
     };
-    let spec = CrowdSpec {
+    Ok(Plan {
         sloths,
-        seed: args.seed,
+        seed,
         dt: args.dt,
-        cfg,
         clearance_m: args.clearance,
-    };
-    Ok(Crowd::new(spec, rig, scene, source)?)
+        cfg,
+        forest,
+    })
 }
 
-/// A crowd from a checkpoint: its forest rebuilt (procedural) or read
-/// (`forest` overrides the file path the state names), then the state loaded.
-pub fn load_checkpoint(state: &Path, forest: Option<&Path>, rig: &Rig) -> Result<Crowd> {
-    let info = Crowd::checkpoint_info(state)?;
-    let scene = match &info.forest {
-        ForestSource::Procedural(cfg) => generate_forest(cfg)?,
+/// Builds the crowd a plan describes.
+fn build(plan: Plan, rig: &Rig) -> Result<Built> {
+    let (scene, source): (Scene, ForestSource) = match plan.forest {
         ForestSource::File { path, .. } => {
-            let path = forest.unwrap_or(path);
-            read_scene(path).with_context(|| format!("forest {}", path.display()))?
+            let scene = read_scene(&path).with_context(|| format!("forest {}", path.display()))?;
+            let hash = scene_hash(&scene);
+            (
+                scene,
+                ForestSource::File {
+                    path,
+                    scene_hash: hash,
+                },
+            )
         }
+        ForestSource::Procedural(fc) => (generate_forest(&fc)?, ForestSource::Procedural(fc)),
     };
-    Ok(Crowd::load_state(state, rig, scene)?)
+    let scene_hash = scene_hash(&scene);
+    let spec = CrowdSpec {
+        sloths: plan.sloths,
+        seed: plan.seed,
+        dt: plan.dt,
+        cfg: plan.cfg,
+        clearance_m: plan.clearance_m,
+    };
+    Ok(Built {
+        crowd: Crowd::new(spec, rig, scene, source)?,
+        scene_hash,
+    })
 }
 
-/// Makes sure `dir` exists and is writable before a long run starts.
-pub fn prepare_out(dir: &Path) -> Result<()> {
-    std::fs::create_dir_all(dir)
-        .with_context(|| format!("cannot create output folder {}", dir.display()))?;
-    let probe = dir.join(".slothsim-write-probe");
-    std::fs::write(&probe, b"")
-        .with_context(|| format!("output folder {} is not writable", dir.display()))?;
-    let _ = std::fs::remove_file(probe);
+/// The plan a `stats.json` records, checked against this program and the
+/// forest file it names; also the frames and the `state_hash` to reach.
+fn plan_from_stats(path: &Path) -> Result<(Plan, u64, String)> {
+    let (prov, value) = read_provenance(path)?;
+    let here = Provenance::here(1, None);
+    if !here.same_program(&prov) {
+        bail!(
+            "{} was written by {}; this is {}: re-run it with that build",
+            path.display(),
+            prov.program_text(),
+            here.program_text()
+        );
+    }
+    let field = |name: &str| format!("{}: field `provenance.{name}` is missing", path.display());
+    let run = prov.run.with_context(|| field("run"))?;
+    let cfg = prov.config.with_context(|| field("config"))?;
+    if run.load_state.is_some() || run.start_frame != 0 {
+        bail!(
+            "{} continues a checkpoint (--load-state {}); re-run that with --load-state",
+            path.display(),
+            run.load_state.as_deref().unwrap_or("?")
+        );
+    }
+    if let ForestSource::File { path: forest, .. } = &run.forest.source {
+        let sha = file_sha256(forest)?;
+        if run.forest.file_sha256.as_deref() != Some(sha.as_str()) {
+            bail!(
+                "{}: the forest {} has changed since (SHA-256 {sha}, the run had {})",
+                path.display(),
+                forest.display(),
+                run.forest.file_sha256.as_deref().unwrap_or("none")
+            );
+        }
+    }
+    let hash = value
+        .get("state_hash")
+        .and_then(|h| h.as_str())
+        .with_context(|| format!("{}: field `state_hash` is missing", path.display()))?
+        .to_string();
+    let plan = Plan {
+        sloths: run.sloths,
+        seed: run.seed,
+        dt: run.dt,
+        clearance_m: run.clearance_m,
+        cfg,
+        forest: run.forest.source,
+    };
+    Ok((plan, run.frames, hash))
+}
+
+/// Parses `A..B` (both included).
+fn parse_seeds(text: &str) -> Result<Vec<u64>> {
+    let (a, b) = text
+        .split_once("..")
+        .with_context(|| format!("--seeds {text}: expected A..B, e.g. 1..16"))?;
+    let b = b.strip_prefix('=').unwrap_or(b);
+    let a: u64 = a
+        .trim()
+        .parse()
+        .with_context(|| format!("--seeds {text}: `{a}` is not a seed"))?;
+    let b: u64 = b
+        .trim()
+        .parse()
+        .with_context(|| format!("--seeds {text}: `{b}` is not a seed"))?;
+    if b < a {
+        bail!("--seeds {text}: the last seed is below the first");
+    }
+    if b - a >= 100_000 {
+        bail!("--seeds {text}: more than 100,000 seeds");
+    }
+    Ok((a..=b).collect())
+}
+
+/// Refuses `flags` given on the command line beside `mode`.
+fn refuse_beside(m: &ArgMatches, mode: &str, what: &str, flags: &[&str]) -> Result<()> {
+    let given: Vec<String> = flags
+        .iter()
+        .filter(|id| given(m, id))
+        .map(|id| flag(id))
+        .collect();
+    if !given.is_empty() {
+        bail!("{mode} takes {what}; drop {}", given.join("/"));
+    }
     Ok(())
 }
 
-pub fn run(args: RunArgs) -> Result<bool> {
+pub fn run(args: RunArgs, m: &ArgMatches) -> Result<bool> {
     if !(args.seconds.is_finite() && args.seconds > 0.0) {
         bail!("--seconds must be > 0 (got {})", args.seconds);
     }
     if args.threads == Some(0) {
         bail!("--threads must be at least 1");
+    }
+    if args.load_state.is_some() {
+        refuse_beside(
+            m,
+            "--load-state",
+            "the forest, config, seed, sloths and time step from the state file",
+            &INPUT_FLAGS,
+        )?;
+        refuse_beside(m, "--load-state", "one state", &["from", "seeds"])?;
+    }
+    if args.from.is_some() {
+        let mut flags = INPUT_FLAGS.to_vec();
+        flags.extend(["forest", "seconds", "seeds"]);
+        refuse_beside(
+            m,
+            "--from",
+            "the forest, config, seed, sloths, time step and frames from the stats file",
+            &flags,
+        )?;
+    }
+    if args.seeds.is_some() {
+        refuse_beside(
+            m,
+            "--seeds",
+            "the seeds of the sweep",
+            &["seed", "save_state"],
+        )?;
+    } else if args.shard.is_given() {
+        bail!("--shard/--shards split a --seeds sweep (or a matrix); give --seeds A..B");
     }
     prepare_out(&args.out)?;
     let threads = init_compute_pool(args.threads);
@@ -168,13 +317,79 @@ pub fn run(args: RunArgs) -> Result<bool> {
         .num_threads(threads)
         .build_global();
     let rig = Rig::sloth();
-    let t0 = Instant::now();
-    let mut crowd = build_crowd(&args, &rig)?;
-    let setup_s = t0.elapsed().as_secs_f64();
+    let frames_of = |dt: f32| (args.seconds / dt).round().max(1.0) as u64;
+    if let Some(from) = &args.from {
+        let (plan, frames, expected) = plan_from_stats(from)?;
+        let built = build(plan, &rig)?;
+        let stats = run_one(&args, built, frames, &args.out, threads, None)?;
+        if stats.state_hash != expected {
+            eprintln!(
+                "error: state_hash {} differs from {}'s {expected}",
+                stats.state_hash,
+                from.display()
+            );
+            return Ok(false);
+        }
+        println!("reproduced state_hash {expected} of {}", from.display());
+        return Ok(true);
+    }
+    if let Some(state) = &args.load_state {
+        let t0 = Instant::now();
+        let crowd = load_checkpoint(state, args.forest.as_deref(), &rig)?;
+        let scene_hash = match crowd.forest_source() {
+            Some(ForestSource::Procedural(fc)) => scene_hash(&generate_forest(fc)?),
+            Some(ForestSource::File { scene_hash, .. }) => *scene_hash,
+            None => 0,
+        };
+        eprintln!("state loaded in {:.1} s", t0.elapsed().as_secs_f64());
+        let frames = frames_of(crowd.spec().dt);
+        let built = Built { crowd, scene_hash };
+        run_one(&args, built, frames, &args.out, threads, Some(state))?;
+        return Ok(true);
+    }
+    if let Some(text) = &args.seeds {
+        let seeds = parse_seeds(text)?;
+        let shard = args.shard.resolve()?;
+        let mine = shard.take(&seeds);
+        eprintln!(
+            "seed sweep {text}: shard {}/{} runs {} of {} seeds",
+            shard.index,
+            shard.count,
+            mine.len(),
+            seeds.len()
+        );
+        for seed in mine {
+            let dir = args.out.join(format!("seed-{seed}"));
+            prepare_out(&dir)?;
+            let built = build(plan_from_flags(&args, seed)?, &rig)?;
+            let frames = frames_of(built.crowd.spec().dt);
+            run_one(&args, built, frames, &dir, threads, None)?;
+        }
+        return Ok(true);
+    }
+    let built = build(plan_from_flags(&args, args.seed)?, &rig)?;
+    let frames = frames_of(built.crowd.spec().dt);
+    run_one(&args, built, frames, &args.out, threads, None)?;
+    Ok(true)
+}
+
+/// Runs one crowd for `frames` and writes its outputs into `out`.
+fn run_one(
+    args: &RunArgs,
+    built: Built,
+    frames: u64,
+    out: &Path,
+    threads: usize,
+    load_state: Option<&Path>,
+) -> Result<CrowdStats> {
+    let Built {
+        mut crowd,
+        scene_hash,
+    } = built;
+    let start_frame = crowd.frame();
     let dt = crowd.spec().dt;
-    let frames = (args.seconds / dt).round().max(1.0) as u64;
     eprintln!(
-        "{} sloths, {frames} frames of {:.4} s, {threads} threads (set up in {setup_s:.1} s)",
+        "{} sloths, {frames} frames of {:.4} s, {threads} threads",
         crowd.spec().sloths,
         dt
     );
@@ -185,6 +400,14 @@ pub fn run(args: RunArgs) -> Result<bool> {
             crowd.spec().sloths
         );
     }
+    let mut provenance = Provenance::here(threads, Some(&crowd.spec().cfg));
+    provenance.run = Some(run_provenance(
+        &crowd,
+        scene_hash,
+        start_frame,
+        frames,
+        load_state,
+    )?);
     // Plot samples (trails every second, the focus sloth's gait and traces)
     // are read after each tick, outside the stage timings.
     let mut recorder = (!args.no_plots).then(|| CrowdRecorder::new(&crowd, args.focus, 1.0));
@@ -195,14 +418,14 @@ pub fn run(args: RunArgs) -> Result<bool> {
     if let Some(path) = &args.save_state {
         crowd.save_state(path)?;
     }
-    write_outputs(&args.out, &stats, crowd.timings())?;
-    print_summary(&stats, wall_s, &args.out);
+    write_outputs(out, &stats, &provenance, crowd.timings())?;
+    print_summary(&stats, wall_s, out);
     if let Some(rec) = &mut recorder {
         rec.finish(&crowd);
-        let costs = crate::plots::run_plots(&args.out, &crowd, rec)?;
-        crate::plots::print_costs(&costs, &args.out);
+        let costs = crate::plots::run_plots(out, &crowd, rec)?;
+        crate::plots::print_costs(&costs, out);
     }
-    Ok(true)
+    Ok(stats)
 }
 
 /// Runs `frames` ticks with a progress bar on a terminal, plain lines otherwise.
@@ -244,8 +467,13 @@ fn simulate(crowd: &mut Crowd, frames: u64, mut recorder: Option<&mut CrowdRecor
     }
 }
 
-fn write_outputs(dir: &Path, stats: &CrowdStats, timings: &StageTimings) -> Result<()> {
-    let json = serde_json::to_string_pretty(stats)?;
+fn write_outputs(
+    dir: &Path,
+    stats: &CrowdStats,
+    provenance: &Provenance,
+    timings: &StageTimings,
+) -> Result<()> {
+    let json = serde_json::to_string_pretty(&with_provenance(stats, provenance))?;
     let path = dir.join("stats.json");
     write_atomically(&path, json.as_bytes())
         .with_context(|| format!("cannot write {}", path.display()))?;

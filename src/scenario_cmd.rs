@@ -1,10 +1,10 @@
-//! `slothsim scenario` and `slothsim matrix`: one sloth on thesis presets, judged.
+//! `slothsim scenario`: one sloth on a thesis preset, judged.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
-use anyhow::{Context, Result, bail};
+use anyhow::{Result, bail};
 use clap::{Args, ValueEnum};
-use slothsim::gait::{LocomotionConfig, Profile, Tolerances};
+use slothsim::observe::Tolerances;
 use slothsim::rig::Limb;
 use slothsim::rig::Rig;
 use slothsim::scene::{Preset, PresetKind};
@@ -13,14 +13,8 @@ use slothsim::sim::{
     run_scenario,
 };
 
-/// Gait profile names on the command line.
-#[derive(Clone, Copy, Debug, ValueEnum)]
-pub enum ProfileArg {
-    /// The thesis model (0.11 m/s).
-    Free,
-    /// SPEC Table 1 steady state.
-    Steady,
-}
+use crate::cli_common::{ProfileArg, load_config, prepare_out, preset_value, write_json};
+use crate::provenance::{Provenance, with_provenance};
 
 /// Scenario variant: trunk `up|down`, branch_trunk `to-trunk|to-branch`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -99,69 +93,6 @@ pub struct ScenarioArgs {
     no_plots: bool,
 }
 
-/// The locomotion config: profile defaults, overridden by a TOML file.
-pub fn load_config(profile: ProfileArg, file: Option<&Path>) -> Result<LocomotionConfig> {
-    let profile = match profile {
-        ProfileArg::Free => Profile::Free,
-        ProfileArg::Steady => Profile::Steady,
-    };
-    match file {
-        None => Ok(LocomotionConfig::profile(profile)),
-        Some(path) => {
-            let text = std::fs::read_to_string(path)
-                .with_context(|| format!("cannot read config {}", path.display()))?;
-            let mut text = text;
-            if !text.contains("profile") {
-                text = format!(
-                    "profile = \"{}\"\n{text}",
-                    match profile {
-                        Profile::Free => "free",
-                        Profile::Steady => "steady",
-                    }
-                );
-            }
-            LocomotionConfig::from_toml(&text)
-                .map_err(|e| anyhow::anyhow!("invalid config {}: {e}", path.display()))
-        }
-    }
-}
-
-/// The preset parameter from `--angle` (degrees) or `--param` (metres), whichever
-/// the preset takes; an error names the right flag.
-pub fn preset_value(
-    kind: PresetKind,
-    angle: Option<f32>,
-    param: Option<f32>,
-) -> Result<Option<f32>> {
-    Ok(match (kind.parameter(), angle, param) {
-        (_, Some(_), Some(_)) => bail!("give either --angle or --param, not both"),
-        (Some((name, unit, ..)), Some(_), None) if unit != "deg" => {
-            bail!(
-                "preset `{}` takes --param ({name} in {unit}), not --angle",
-                kind.name()
-            )
-        }
-        (Some((name, "deg", ..)), None, Some(_)) => {
-            bail!(
-                "preset `{}` takes --angle ({name} in degrees), not --param",
-                kind.name()
-            )
-        }
-        (_, a, p) => a.or(p),
-    })
-}
-
-/// Writes `value` as pretty JSON to `dir/name`, through a temporary file.
-pub fn write_json(dir: &Path, name: &str, value: &impl serde::Serialize) -> Result<PathBuf> {
-    std::fs::create_dir_all(dir)
-        .with_context(|| format!("cannot create output folder {}", dir.display()))?;
-    let path = dir.join(name);
-    let text = serde_json::to_string_pretty(value)?;
-    slothsim::sim::write_atomically(&path, text.as_bytes())
-        .with_context(|| format!("cannot write {}", path.display()))?;
-    Ok(path)
-}
-
 fn print_result(r: &ScenarioResult) {
     let j = &r.judge;
     let p = r.parameter.map_or(String::new(), |v| format!(" {v}"));
@@ -218,7 +149,7 @@ fn print_result(r: &ScenarioResult) {
 }
 
 /// One line of per-limb means: contact / swing (s), stride (m).
-fn print_limbs(label: &str, g: &slothsim::gait::GaitReport) {
+fn print_limbs(label: &str, g: &slothsim::observe::GaitReport) {
     let limbs = Limb::ALL.map(|limb| {
         let l = g.limbs.get(limb);
         format!(
@@ -234,7 +165,7 @@ fn print_limbs(label: &str, g: &slothsim::gait::GaitReport) {
 
 /// The goal point as run (variants may swap start and goal; a goal with a
 /// side is drawn where the body would be, beside the axis).
-fn goal_of(spec: &ScenarioSpec) -> glam::Vec3 {
+pub fn goal_of(spec: &ScenarioSpec) -> glam::Vec3 {
     let goal = spec.variant.start_goal(&spec.preset).1;
     goal.point + goal.side.map_or(glam::Vec3::ZERO, |side| side * 0.3)
 }
@@ -262,12 +193,13 @@ pub fn scenario(args: ScenarioArgs) -> Result<bool> {
         tolerances: Tolerances::default(),
     };
     if let Some(dir) = &args.out {
-        crate::run_cmd::prepare_out(dir)?;
+        prepare_out(dir)?;
     }
     let result = run_scenario(&spec, &Rig::sloth())?;
     print_result(&result);
     if let Some(dir) = &args.out {
-        let path = write_json(dir, "scenario.json", &result)?;
+        let provenance = Provenance::here(1, Some(&spec.cfg));
+        let path = write_json(dir, "scenario.json", &with_provenance(&result, &provenance))?;
         println!("wrote {}", path.display());
         if !args.no_plots {
             let costs =
@@ -276,219 +208,4 @@ pub fn scenario(args: ScenarioArgs) -> Result<bool> {
         }
     }
     Ok(result.verdict.pass)
-}
-
-#[derive(Args)]
-pub struct MatrixArgs {
-    /// Gait profile.
-    #[arg(long, value_enum, default_value = "free")]
-    profile: ProfileArg,
-    /// Locomotion config (TOML); overrides the profile's defaults.
-    #[arg(long, value_name = "FILE")]
-    config: Option<PathBuf>,
-    /// Angle step of the sweeps, degrees.
-    #[arg(long, default_value_t = 5.0)]
-    step: f32,
-    /// Output folder for matrix.json.
-    #[arg(long)]
-    out: Option<PathBuf>,
-    /// Also draw every case's plots into a subfolder of --out (e.g. `turn-135/`).
-    #[arg(long, requires = "out")]
-    plots: bool,
-}
-
-/// One row of the matrix.
-#[derive(serde::Serialize)]
-struct MatrixRow {
-    scenario: String,
-    thesis_range: Option<[f32; 2]>,
-    runs: Vec<MatrixRun>,
-    passing: Vec<[f32; 2]>,
-}
-
-#[derive(serde::Serialize)]
-struct MatrixRun {
-    parameter: Option<f32>,
-    variant: Option<TrunkVariant>,
-    pass: bool,
-    goal_time_s: Option<f32>,
-    failures: Vec<String>,
-}
-
-/// Contiguous passing ranges of a sweep.
-fn passing_ranges(runs: &[MatrixRun]) -> Vec<[f32; 2]> {
-    let mut out: Vec<[f32; 2]> = Vec::new();
-    let mut open: Option<[f32; 2]> = None;
-    for r in runs {
-        let Some(p) = r.parameter else { continue };
-        match (&mut open, r.pass) {
-            (Some(range), true) => range[1] = p,
-            (None, true) => open = Some([p, p]),
-            (Some(range), false) => {
-                out.push(*range);
-                open = None;
-            }
-            (None, false) => {}
-        }
-    }
-    out.extend(open);
-    out
-}
-
-/// `slothsim matrix`: every preset over its range; true when the thesis ranges all pass.
-pub fn matrix(args: MatrixArgs) -> Result<bool> {
-    if !(args.step.is_finite() && args.step >= 1.0) {
-        bail!("--step {} must be at least 1 degree", args.step);
-    }
-    let cfg = load_config(args.profile, args.config.as_deref())?;
-    let rig = Rig::sloth();
-    // (row name, preset, its variants, sweep range, thesis range: its
-    // strict interior must pass). `trunk_branch` is branch_trunk run the
-    // other way (trunk → branch, `transfer_to_branch`): the thesis's test 5
-    // covers both ways.
-    type Sweep = (
-        &'static str,
-        PresetKind,
-        &'static [TrunkVariant],
-        Option<[f32; 2]>,
-        Option<[f32; 2]>,
-    );
-    const UP: &[TrunkVariant] = &[TrunkVariant::Up];
-    let sweeps: [Sweep; 7] = [
-        (
-            "turn",
-            PresetKind::Turn,
-            UP,
-            Some([60.0, 180.0]),
-            Some([95.0, 175.0]),
-        ),
-        (
-            "height_change",
-            PresetKind::HeightChange,
-            UP,
-            Some([110.0, 220.0]),
-            Some([135.0, 200.0]),
-        ),
-        (
-            "branch_trunk",
-            PresetKind::BranchTrunk,
-            UP,
-            Some([60.0, 160.0]),
-            Some([90.0, 140.0]),
-        ),
-        (
-            "trunk_branch",
-            PresetKind::BranchTrunk,
-            &[TrunkVariant::ToBranch],
-            Some([60.0, 160.0]),
-            Some([90.0, 140.0]),
-        ),
-        ("parallel", PresetKind::Parallel, UP, None, None),
-        (
-            "trunk",
-            PresetKind::Trunk,
-            &[TrunkVariant::Up, TrunkVariant::Down, TrunkVariant::Around],
-            None,
-            None,
-        ),
-        ("pole", PresetKind::Pole, UP, None, None),
-    ];
-    let mut rows = Vec::new();
-    let mut all_ok = true;
-    println!("{:<14} {:>8}  {:<6} notes", "scenario", "param", "result");
-    for (row_name, kind, variants, sweep, thesis) in sweeps {
-        let mut runs = Vec::new();
-        let params: Vec<Option<f32>> = match sweep {
-            Some([lo, hi]) => {
-                let n = ((hi - lo) / args.step).floor() as usize;
-                (0..=n).map(|i| Some(lo + i as f32 * args.step)).collect()
-            }
-            None => vec![None],
-        };
-        for p in params {
-            for &variant in variants {
-                let spec = ScenarioSpec {
-                    preset: Preset::new(kind, p)?,
-                    variant,
-                    cfg: cfg.clone(),
-                    dt: 1.0 / 60.0,
-                    time_limit_s: None,
-                    tolerances: Tolerances::default(),
-                };
-                let r = run_scenario(&spec, &rig)?;
-                let label = match (p, variants.len() > 1) {
-                    (Some(v), _) => format!("{v}"),
-                    (None, true) => format!("{variant:?}").to_lowercase(),
-                    (None, false) => "-".into(),
-                };
-                if args.plots
-                    && let Some(dir) = &args.out
-                {
-                    let sub = match label.as_str() {
-                        "-" => dir.join(row_name),
-                        l => dir.join(format!("{row_name}-{l}")),
-                    };
-                    std::fs::create_dir_all(&sub)
-                        .with_context(|| format!("cannot create {}", sub.display()))?;
-                    crate::plots::scenario_plots(&sub, &spec.preset.scene, goal_of(&spec), &r)?;
-                }
-                println!(
-                    "{:<14} {:>8}  {:<6} {}",
-                    row_name,
-                    label,
-                    if r.verdict.pass { "pass" } else { "FAIL" },
-                    r.verdict.failures.first().map_or("", |s| s.as_str())
-                );
-                let in_thesis = match (thesis, p) {
-                    (Some([lo, hi]), Some(v)) => v > lo && v < hi,
-                    _ => true,
-                };
-                if in_thesis && !r.verdict.pass {
-                    all_ok = false;
-                }
-                runs.push(MatrixRun {
-                    parameter: p,
-                    variant: variant.shown_for(kind).then_some(variant),
-                    pass: r.verdict.pass,
-                    goal_time_s: r.judge.goal_time_s,
-                    failures: r.verdict.failures.clone(),
-                });
-            }
-        }
-        let passing = passing_ranges(&runs);
-        rows.push(MatrixRow {
-            scenario: row_name.into(),
-            thesis_range: thesis,
-            runs,
-            passing,
-        });
-    }
-    println!();
-    println!("{:<14} {:<22} passing here", "scenario", "thesis (strict)");
-    for row in &rows {
-        let thesis = row
-            .thesis_range
-            .map_or("success".to_string(), |[a, b]| format!("{a} < a < {b}"));
-        let here = if row.thesis_range.is_some() {
-            row.passing
-                .iter()
-                .map(|[a, b]| format!("{a}–{b}"))
-                .collect::<Vec<_>>()
-                .join(", ")
-        } else {
-            let ok = row.runs.iter().all(|r| r.pass);
-            if ok { "success".into() } else { "FAIL".into() }
-        };
-        println!(
-            "{:<14} {:<22} {}",
-            row.scenario,
-            thesis,
-            if here.is_empty() { "none".into() } else { here }
-        );
-    }
-    if let Some(dir) = &args.out {
-        let path = write_json(dir, "matrix.json", &rows)?;
-        println!("wrote {}", path.display());
-    }
-    Ok(all_ok)
 }

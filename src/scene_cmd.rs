@@ -108,7 +108,7 @@ fn export(args: ExportArgs) -> Result<()> {
         generate_forest(&args.forest.config()?)?
     } else {
         let kind = PresetKind::parse(&args.preset)?;
-        let value = crate::scenario_cmd::preset_value(kind, args.angle, args.param)?;
+        let value = crate::cli_common::preset_value(kind, args.angle, args.param)?;
         Preset::new(kind, value)?.scene
     };
     write_scene(&scene, &args.out)?;

@@ -100,7 +100,7 @@ fn sloths_where_they_are(pm: &Pixmap, state: &Path) {
     };
     let scene = generate_forest(fc).unwrap();
     let crowd = Crowd::load_state(state, &Rig::sloth(), scene.clone()).unwrap();
-    let sloths = crowd_poses(&crowd);
+    let sloths = slothsim::to_plot::sloth_poses(&crowd_poses(&crowd));
     assert_eq!(sloths.len() as u32, info.sloths);
     let mut td = TopDown::new(&scene);
     td.sloths = &sloths;

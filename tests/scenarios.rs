@@ -4,7 +4,8 @@
 
 use std::process::Command;
 
-use slothsim::gait::{LocomotionConfig, Profile, Tolerances};
+use slothsim::gait::{LocomotionConfig, Profile};
+use slothsim::observe::Tolerances;
 use slothsim::rig::Rig;
 use slothsim::scene::Preset;
 use slothsim::sim::{

@@ -3,7 +3,8 @@
 //! and climbs it, judged like a scenario (slip, gap, reach, limits, contact,
 //! penetration, head below hips on the trunk, NaN).
 
-use slothsim::gait::{Judge, LimbPhase, LocomotionConfig, Profile, SpawnHint, Status, Tolerances};
+use slothsim::gait::{LimbPhase, LocomotionConfig, Profile, SpawnHint, Status};
+use slothsim::observe::{Judge, Tolerances};
 use slothsim::rig::Rig;
 use slothsim::scene::{Preset, SupportId, TraceScene};
 use slothsim::sim::{Locomotion, SlothState, TrunkVariant, build_schedule, new_world, spawn_sloth};
@@ -15,7 +16,7 @@ fn wander_into_trunk(
     angle: f32,
     seed: u64,
     seconds: f32,
-) -> (Option<f32>, slothsim::gait::JudgeReport, f32) {
+) -> (Option<f32>, slothsim::observe::JudgeReport, f32) {
     wander(angle, TrunkVariant::Up, SupportId(0), seed, seconds)
 }
 
@@ -58,7 +59,7 @@ fn wander(
     target: SupportId,
     seed: u64,
     seconds: f32,
-) -> (Option<f32>, slothsim::gait::JudgeReport, f32) {
+) -> (Option<f32>, slothsim::observe::JudgeReport, f32) {
     let preset = Preset::by_name("branch_trunk", Some(angle)).unwrap();
     let (st, _) = variant.start_goal(&preset);
     let (mut world, e, dt) = spawn_wanderer(&preset, st, seed);

@@ -1,7 +1,8 @@
 //! Sloth locomotion rules (thesis chapter 3) as plain kernels: step search,
-//! gait sequencer, swing arc, body averaging, trunk/branch transitions, plus
-//! the automatic judge and gait statistics. No ECS here: the `sim` crate wires
-//! these into systems.
+//! gait sequencer, swing arc, body averaging, trunk/branch transitions, and
+//! what a sloth reports of itself each frame ([`observe`]; the judge and the
+//! gait statistics that read it are in `slothsim-observe`). No ECS here: the
+//! `sim` crate wires these into systems.
 //!
 //! Conventions: metres, seconds, radians, +Y up, right-handed.
 
@@ -23,7 +24,3 @@ pub use rigdata::RigData;
 pub use sloth::{
     BodyMemo, Fallback, Grip, LimbPhase, LimbState, Sloth, SolveMemo, SpawnHint, Status, TraceBatch,
 };
-pub mod judge;
-pub mod stats;
-pub use judge::{Judge, JudgeReport, JudgeWorst, MeasureAt, ToleranceError, Tolerances, Verdict};
-pub use stats::{FootfallSequence, GaitReport, GaitStats, LimbGaitReport, PerLimb};

@@ -79,3 +79,13 @@ pub use limb::Limb;
 pub use limits::{JointLimit, LimitProblem};
 pub use rig::{LimbJoints, LimbNames, Rig, RigMap};
 pub use skeleton::{RestTransform, Skeleton};
+
+/// The CPU code path the CCD kernels take on this machine: `"avx2"` where the
+/// eight-lane AVX2 kernels run, `"plain"` elsewhere (same results either way).
+pub fn simd_path() -> &'static str {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        return "avx2";
+    }
+    "plain"
+}

@@ -52,12 +52,13 @@
 //! Errors name the file and, where it applies, the node (index and name) and
 //! the field. No input panics or yields NaN.
 
-mod base64;
 mod export;
 mod fit;
 mod import;
 
 use std::path::Path;
+
+use base64::Engine as _;
 
 use crate::{Scene, SceneError};
 
@@ -81,7 +82,7 @@ pub fn export_gltf_json(scene: &Scene) -> String {
     let (root, _) = export::build(scene, |bin| {
         Some(format!(
             "data:application/octet-stream;base64,{}",
-            base64::encode(bin)
+            base64::engine::general_purpose::STANDARD.encode(bin)
         ))
     });
     serde_json::to_string_pretty(&root).unwrap_or_default()

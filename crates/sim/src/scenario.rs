@@ -4,16 +4,14 @@
 use bevy_ecs::prelude::*;
 use glam::Vec3;
 use serde::Serialize;
-use slothsim_gait::{
-    GaitReport, GaitStats, Judge, JudgeReport, LocomotionConfig, SlothObservation, SpawnHint,
-    Status, Tolerances, Verdict,
-};
-use slothsim_plot::{SideInstant, TraceLine};
+use slothsim_gait::{LocomotionConfig, Sloth, SlothObservation, SpawnHint, Status};
+use slothsim_observe::{GaitReport, GaitStats, Judge, JudgeReport, Tolerances, Verdict};
 use slothsim_rig::Rig;
 use slothsim_scene::{Preset, PresetKind, TraceScene};
 
-use crate::snapshot::{sloth_pose, trace_lines};
-use crate::world::{Locomotion, SlothState, Traces, new_world, spawn_sloth};
+use crate::crowd::{Crowd, Observer};
+use crate::snapshot::{PoseAt, TraceLine, sloth_pose, trace_lines};
+use crate::world::{Locomotion, SlothState, Traces};
 
 /// Seconds between the poses kept for the side view.
 pub const POSE_EVERY_S: f32 = 1.0;
@@ -21,7 +19,7 @@ pub const POSE_EVERY_S: f32 = 1.0;
 /// Which way a scenario is run: the trunk preset climbs up or down, the
 /// branch_trunk preset goes from the branch onto the trunk or back. Every
 /// other preset runs as `Up`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, serde::Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum TrunkVariant {
     /// Climb up the trunk; on branch_trunk the same as `ToTrunk` (the default run).
@@ -144,7 +142,7 @@ pub struct ScenarioResult {
     pub observations: Vec<SlothObservation>,
     /// The sloth's pose every [`POSE_EVERY_S`] and at the last frame (for the side view).
     #[serde(skip)]
-    pub poses: Vec<SideInstant>,
+    pub poses: Vec<PoseAt>,
     /// The traces of the sloth's last step search (for the top-down view).
     #[serde(skip)]
     pub traces: Vec<TraceLine>,
@@ -217,69 +215,61 @@ pub fn run_scenario(
     let path_len = start.position.distance(goal.point) + around + 1.0;
     let time_limit_s = spec.time_limit_s.unwrap_or(30.0 + path_len / 0.03);
     let loco = Locomotion::new(spec.cfg.clone(), rig, TraceScene::new(preset.scene.clone()))?;
-    let mut world = new_world(loco, spec.dt);
     let hint = SpawnHint {
         support: start.support,
         position: start.position,
         forward: start.forward,
         body_side: start.body_side,
     };
-    let entity = spawn_sloth(
-        &mut world,
-        0,
+    let mut sloth = Sloth::spawn(
+        &loco.view(),
         &hint,
         Some((goal.support, goal.point, goal.tolerance)),
     );
-    if let Some(mut s) = world.get_mut::<SlothState>(entity) {
-        s.0.goal_side = goal.side;
-    }
-    let mut schedule = crate::build_schedule();
-    let mut judge = Judge::new(
+    sloth.goal_side = goal.side;
+    let judge = Judge::new(
         Tolerances {
             goal_tolerance_m: goal.tolerance,
             ..spec.tolerances
         },
         time_limit_s,
     );
-    let mut stats = GaitStats::new();
+    // The crowd's world, schedule and observer, for one sloth.
+    let mut crowd = Crowd::lone(loco, sloth, spec.dt, judge);
+    let entity = crowd.entity(0).expect("the lone sloth");
     let mut trail = Vec::new();
-    let mut observations = Vec::new();
     let frames_max = (time_limit_s / spec.dt).ceil() as u64;
     let mut status = Status::Moving;
     let mut frames = 0;
-    let mut sloths = world.query::<(&SlothState, &Traces)>();
     let mut after_stop = 0;
     let mut stopped_s = None;
     let mut poses = Vec::new();
     let mut last_search = None;
     let pose_every = ((POSE_EVERY_S / spec.dt).round() as u64).max(1);
+    let trail_every = ((0.5 / spec.dt).round() as u64).max(1);
+    let pose_at = |world: &World, s: &Sloth| PoseAt {
+        time_s: s.time,
+        pose: sloth_pose(s, world.resource::<Locomotion>()),
+    };
     while frames < frames_max {
-        schedule.run(&mut world);
+        crowd.step();
         frames += 1;
-        let loco = world.resource::<Locomotion>();
-        let w = loco.view();
-        let (s, tr) = sloths.single(&world).expect("one sloth");
-        let s = &s.0;
-        let obs = s.observe(&w);
+        let world = crowd.world();
+        let s = &world.get::<SlothState>(entity).expect("the lone sloth").0;
         if frames.is_multiple_of(pose_every) {
-            poses.push(SideInstant {
-                time_s: obs.time_s,
-                pose: sloth_pose(s, loco),
-            });
+            poses.push(pose_at(world, s));
         }
-        if tr.0.len > 0 {
+        if let Some(tr) = world.get::<Traces>(entity)
+            && tr.0.len > 0
+        {
             last_search = Some(tr.0.clone());
         }
-        judge.observe(&obs);
-        stats.observe(&obs);
-        if frames % ((0.5 / spec.dt).round() as u64).max(1) == 0 {
-            trail.push(obs.body_pos);
+        if frames.is_multiple_of(trail_every) {
+            trail.push(s.body_pos);
         }
-        let obs_time = obs.time_s;
-        observations.push(obs);
         status = s.status;
         if status != Status::Moving {
-            stopped_s.get_or_insert(obs_time);
+            stopped_s.get_or_insert(s.time);
             // Let the last swing settle, then stop.
             after_stop += 1;
             if after_stop as f32 * spec.dt > 1.0 {
@@ -287,18 +277,16 @@ pub fn run_scenario(
             }
         }
     }
-    if let Ok((s, _)) = sloths.single(&world)
-        && !frames.is_multiple_of(pose_every)
-    {
-        let loco = world.resource::<Locomotion>();
-        poses.push(SideInstant {
-            time_s: s.0.time,
-            pose: sloth_pose(&s.0, loco),
-        });
+    let world = crowd.world();
+    let s = &world.get::<SlothState>(entity).expect("the lone sloth").0;
+    if !frames.is_multiple_of(pose_every) {
+        poses.push(pose_at(world, s));
     }
     let loco = world.resource::<Locomotion>();
     let traces = last_search.map_or_else(Vec::new, |b| trace_lines(&b, loco));
-    let stage_ms = world.resource::<crate::StageTimings>().history.clone();
+    let stage_ms = crowd.timings().history.clone();
+    let observer = world.get::<Observer>(entity).expect("the lone sloth");
+    let observations = observer.history().to_vec();
     // A sloth that stopped (at its goal) shortened its last steps toward it.
     let cycle_s = spec.cfg.cycle_duration();
     let until_s = match stopped_s {
@@ -307,8 +295,8 @@ pub fn run_scenario(
     };
     let gait_steady = until_s
         .and_then(|until_s| steady_gait(&observations, cycle_s, STEADY_AFTER_CYCLES, until_s));
-    let report = judge.finish();
-    let verdict = report.verdict(judge.tolerances());
+    let report = observer.judge().finish();
+    let verdict = report.verdict(observer.judge().tolerances());
     Ok(ScenarioResult {
         scenario: preset.kind.name().to_string(),
         parameter: preset.parameter,
@@ -316,7 +304,7 @@ pub fn run_scenario(
         verdict,
         status,
         judge: report,
-        gait: stats.finish(),
+        gait: observer.gait().finish(),
         gait_steady,
         time_limit_s,
         frames,

@@ -1,17 +1,65 @@
-//! Snapshots for the debug plots: a sloth's pose and its step-search traces as
-//! `slothsim-plot` input, and a recorder that samples a crowd run for plots.
+//! Snapshots for the debug plots: a sloth's pose and its step-search traces
+//! as plain world-space data (the CLI hands them to `slothsim-plot`), and a
+//! recorder that samples a crowd run for plots.
 //!
 //! Everything here only reads the simulation (after a tick, outside the timed
 //! stages): recording never changes the state or its hash.
 
 use bevy_ecs::prelude::*;
-use glam::Vec3;
+use glam::{Quat, Vec3};
 use slothsim_gait::{LimbPhase, Sloth, TraceBatch};
-use slothsim_plot::{LimbPose, SlothPose, TraceLine};
 use slothsim_scene::TraceRequest;
 
 use crate::crowd::Crowd;
 use crate::world::{Locomotion, SlothId, SlothState, Traces};
+
+/// One limb at one instant, world space (metres).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LimbPose {
+    /// Chain root (girdle), shoulder/hip, elbow/knee, wrist/ankle, claw tip.
+    pub joints_ws: [Vec3; 5],
+    /// Where the claw holds (planted) or the target it swings toward.
+    pub grip_ws: Vec3,
+    /// The limb holds its grip (stance), not swinging.
+    pub planted: bool,
+}
+
+/// One sloth at one instant, world space (metres).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SlothPose {
+    /// Sloth id.
+    pub id: u32,
+    /// Body origin.
+    pub body_pos: Vec3,
+    /// Body rotation (model +Z forward, +Y toward the support, +X left).
+    pub body_rot: Quat,
+    /// Head (tip of the spine).
+    pub head_ws: Vec3,
+    /// Hips (root of the spine).
+    pub hips_ws: Vec3,
+    /// Limbs in [`slothsim_rig::Limb::index`] order (`LF, RF, LH, RH`).
+    pub limbs: [LimbPose; 4],
+}
+
+/// A pose and its simulated time (seconds).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PoseAt {
+    /// Simulated time of the pose.
+    pub time_s: f32,
+    /// The pose.
+    pub pose: SlothPose,
+}
+
+/// One line trace of a step search, world space.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TraceLine {
+    /// Start of the ray.
+    pub from: Vec3,
+    /// The hit point if `hit`, else the end of the ray.
+    pub to: Vec3,
+    /// The trace found a surface.
+    pub hit: bool,
+}
 
 /// A sloth's pose for the plots: every limb's five joints by forward
 /// kinematics from its chain root and solved pose, its grip, planted unless

@@ -9,25 +9,22 @@ use slothsim_scene::{Scene, SupportKind};
 /// Body origin's distance from the support surface (the sim's body offset, roughly).
 pub const BODY_OFFSET: f32 = 0.28;
 
-/// A tiny deterministic generator (xorshift64*), so tests need no rand crate.
-pub struct Rng(u64);
+/// A seeded generator for the synthetic poses (PCG, as the rest of the workspace).
+pub struct Rng(rand_pcg::Pcg64Mcg);
 
 impl Rng {
     pub fn new(seed: u64) -> Self {
-        Rng(seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1)
+        Rng(rand::SeedableRng::seed_from_u64(seed))
     }
     pub fn next_u64(&mut self) -> u64 {
-        self.0 ^= self.0 >> 12;
-        self.0 ^= self.0 << 25;
-        self.0 ^= self.0 >> 27;
-        self.0.wrapping_mul(0x2545_F491_4F6C_DD1D)
+        rand::Rng::random(&mut self.0)
     }
     /// Uniform in 0..1.
     pub fn f32(&mut self) -> f32 {
-        (self.next_u64() >> 40) as f32 / (1u64 << 24) as f32
+        rand::Rng::random(&mut self.0)
     }
     pub fn below(&mut self, n: usize) -> usize {
-        (self.next_u64() % n.max(1) as u64) as usize
+        rand::Rng::random_range(&mut self.0, 0..n.max(1))
     }
 }
 

@@ -1,0 +1,364 @@
+//! What a crowd run reports: every sloth's [`Observer`] (its judge and gait
+//! statistics, fed after each tick outside the timed stages) and the crowd
+//! statistics folded from them ([`CrowdStats`], the content of `stats.json`).
+
+use bevy_ecs::prelude::*;
+use serde::Serialize;
+use slothsim_gait::SlothObservation;
+use slothsim_observe::{GaitReport, GaitStats, Judge, JudgeReport, Tolerances};
+use slothsim_scene::{SupportId, SupportKind};
+
+use super::Crowd;
+use crate::world::{Locomotion, SlothId, SlothState};
+
+/// A sloth that has not completed a step for this long at the end of a run is stuck.
+pub const STUCK_AFTER_S: f32 = 10.0;
+
+/// The judge of a wandering sloth: the issue's limits, no time limit (a
+/// wanderer has no goal to reach in time).
+pub(super) fn crowd_judge() -> Judge {
+    Judge::new(Tolerances::issue_limits(), f32::INFINITY)
+}
+
+/// Per-sloth judge and gait statistics, fed after every tick (outside the
+/// timed stages), and what the crowd statistics count besides.
+#[derive(Component)]
+pub struct Observer {
+    judge: Judge,
+    stats: GaitStats,
+    /// Every frame's observation, when kept (a lone sloth's scenario run
+    /// keeps them for its steady-state statistics and plots; a crowd does not).
+    history: Option<Vec<SlothObservation>>,
+    planted: [bool; 4],
+    /// Simulated time of the last touch-down.
+    last_step_s: f32,
+    /// Distinct supports a limb of this sloth was planted on, in order of first visit.
+    visited: Vec<SupportId>,
+    /// Frames on a trunk.
+    trunk_frames: u64,
+    /// Frames observed.
+    frames: u64,
+    /// Changes between branch and trunk (the body's `on_trunk` flips).
+    kind_changes: u32,
+    /// `on_trunk` of the last frame.
+    on_trunk: Option<bool>,
+}
+
+impl Observer {
+    /// An observer judging with `judge`, of a sloth whose clock reads
+    /// `time_s`; it keeps every observation when `keep_history`.
+    pub(super) fn new(judge: Judge, time_s: f32, keep_history: bool) -> Self {
+        Observer {
+            judge,
+            stats: GaitStats::new(),
+            history: keep_history.then(Vec::new),
+            planted: [true; 4],
+            last_step_s: time_s,
+            visited: Vec::new(),
+            trunk_frames: 0,
+            frames: 0,
+            kind_changes: 0,
+            on_trunk: None,
+        }
+    }
+
+    pub(super) fn observe(&mut self, obs: &SlothObservation) {
+        self.judge.observe(obs);
+        self.stats.observe(obs);
+        if let Some(h) = &mut self.history {
+            h.push(*obs);
+        }
+        for (i, l) in obs.limbs.iter().enumerate() {
+            if l.planted && !self.planted[i] {
+                self.last_step_s = obs.time_s;
+            }
+            self.planted[i] = l.planted;
+            // A short list (a sloth holds a few dozen supports in a long run).
+            if l.planted && !self.visited.contains(&l.support) {
+                self.visited.push(l.support);
+            }
+        }
+        self.frames += 1;
+        self.trunk_frames += u64::from(obs.on_trunk);
+        if self.on_trunk.is_some_and(|t| t != obs.on_trunk) {
+            self.kind_changes += 1;
+        }
+        self.on_trunk = Some(obs.on_trunk);
+    }
+
+    /// The judge so far.
+    pub fn judge(&self) -> &Judge {
+        &self.judge
+    }
+
+    /// The gait statistics so far.
+    pub fn gait(&self) -> &GaitStats {
+        &self.stats
+    }
+
+    /// Every frame's observation, oldest first (empty unless kept).
+    pub fn history(&self) -> &[SlothObservation] {
+        self.history.as_deref().unwrap_or_default()
+    }
+}
+
+/// Statistics of a crowd run (the content of `stats.json`).
+#[derive(Clone, Debug, Serialize)]
+pub struct CrowdStats {
+    /// Sloths.
+    pub sloths: u32,
+    /// Frames simulated in this run (a resumed run counts its own).
+    pub frames: u64,
+    /// Time step (s).
+    pub dt: f32,
+    /// Simulated time at the end (s), including any resumed part.
+    pub time_s: f32,
+    /// Worker threads of the compute pool.
+    pub threads: usize,
+    /// Seed.
+    pub seed: u64,
+    /// Hash of the final state (hex), see [`Crowd::state_hash`].
+    pub state_hash: String,
+    /// Mean body speed over all sloths (m/s).
+    pub speed_mps_mean: f32,
+    /// Frame time (ms): p50, p95, max.
+    pub frame_ms: Percentiles,
+    /// Per stage p50/p95 (ms).
+    pub stages_ms: StagesMs,
+    /// Judge/statistics pass per frame, outside the stages (ms): p50, p95, max.
+    pub observe_ms: Percentiles,
+    /// Traces per frame (mean).
+    pub traces_per_frame_mean: f64,
+    /// Per-limb gait statistics over the crowd.
+    pub gait: GaitReport,
+    /// Judge measures over the crowd (worst sloth).
+    pub max_grip_slip_m: f32,
+    /// Largest grip ↔ surface distance of a planted limb.
+    pub max_surface_gap_m: f32,
+    /// Largest root → effector distance over limb length.
+    pub max_reach_ratio: f32,
+    /// Frames × limbs outside a joint limit.
+    pub joint_limit_violations: u64,
+    /// Fewest limbs in contact of any sloth at any frame.
+    pub min_limbs_in_contact: u32,
+    /// Deepest body/support penetration.
+    pub max_penetration_m: f32,
+    /// Frames where a sloth on a trunk had its head below its hips.
+    pub head_below_hips_on_trunk_frames: u64,
+    /// Non-finite values seen.
+    pub nan_count: u64,
+    /// Sloths that completed no step in the last [`STUCK_AFTER_S`] s.
+    pub stuck_sloths: u32,
+    /// Ids of the stuck sloths (first 100).
+    pub stuck_ids: Vec<u32>,
+    /// Times sloths turned back (dead ends or blocked), summed.
+    pub turn_backs: u64,
+    /// How much of the forest the crowd roamed in this run.
+    pub roaming: Roaming,
+    /// Which sloth holds the worst value of each measure (id), for follow-up.
+    pub worst_sloths: WorstSloths,
+    /// The full judge report over the crowd.
+    pub judge: JudgeReport,
+}
+
+/// How much of the forest a crowd run covered (this run's frames; a resumed
+/// run counts its own part).
+#[derive(Clone, Copy, Debug, Default, Serialize)]
+pub struct Roaming {
+    /// Supports of the forest.
+    pub supports: u32,
+    /// Supports some sloth planted a limb on.
+    pub supports_visited: u32,
+    /// Mean over sloths of the distinct supports each planted a limb on.
+    pub supports_per_sloth_mean: f32,
+    /// Trunks some sloth planted a limb on.
+    pub trunks_climbed: u32,
+    /// Share of sloth-frames spent on a trunk.
+    pub trunk_frame_share: f32,
+    /// Changes between branch and trunk (either way), summed over sloths.
+    pub branch_trunk_changes: u64,
+    /// Sloths that changed between branch and trunk at least once.
+    pub sloths_changing_kind: u32,
+}
+
+/// The sloth with the worst value of each judge measure.
+#[derive(Clone, Copy, Debug, Default, Serialize)]
+pub struct WorstSloths {
+    /// Largest grip slip.
+    pub max_grip_slip: Option<u32>,
+    /// Largest grip ↔ surface gap.
+    pub max_surface_gap: Option<u32>,
+    /// Largest reach ratio.
+    pub max_reach_ratio: Option<u32>,
+    /// Deepest penetration.
+    pub max_penetration: Option<u32>,
+    /// Fewest limbs in contact.
+    pub min_limbs_in_contact: Option<u32>,
+}
+
+fn worst_by<'a>(
+    rows: impl Iterator<Item = (u32, &'a JudgeReport)>,
+    key: impl Fn(&JudgeReport) -> f32,
+) -> Option<u32> {
+    rows.max_by(|a, b| key(a.1).total_cmp(&key(b.1)).then(b.0.cmp(&a.0)))
+        .map(|r| r.0)
+}
+
+/// p50 / p95 / max.
+#[derive(Clone, Copy, Debug, Default, Serialize)]
+pub struct Percentiles {
+    /// Median.
+    pub p50: f64,
+    /// 95th percentile.
+    pub p95: f64,
+    /// Maximum.
+    pub max: f64,
+}
+
+impl Percentiles {
+    /// Of `values` (nearest-rank); zeros when empty.
+    pub fn of(values: &[f64]) -> Self {
+        if values.is_empty() {
+            return Percentiles::default();
+        }
+        let mut v = values.to_vec();
+        v.sort_by(f64::total_cmp);
+        let at = |q: f64| v[((q * v.len() as f64).ceil() as usize).clamp(1, v.len()) - 1];
+        Percentiles {
+            p50: at(0.5),
+            p95: at(0.95),
+            max: v[v.len() - 1],
+        }
+    }
+}
+
+/// Per stage p50/p95 (ms).
+#[derive(Clone, Copy, Debug, Default, Serialize)]
+pub struct StagesMs {
+    /// Trace stage.
+    pub trace: Percentiles,
+    /// StepSearch stage.
+    pub step_search: Percentiles,
+    /// BodyAverage stage.
+    pub body_average: Percentiles,
+    /// CcdSolve stage.
+    pub ccd_solve: Percentiles,
+    /// Transitions stage (includes rebuilding the neighbour grid).
+    pub transitions: Percentiles,
+}
+
+impl StagesMs {
+    /// From per-frame stage times (columns in [`StageTimings::NAMES`](crate::StageTimings::NAMES) order).
+    pub fn of(history: &[[f64; 5]]) -> Self {
+        let col = |i: usize| Percentiles::of(&history.iter().map(|r| r[i]).collect::<Vec<_>>());
+        StagesMs {
+            trace: col(0),
+            step_search: col(1),
+            body_average: col(2),
+            ccd_solve: col(3),
+            transitions: col(4),
+        }
+    }
+}
+
+impl Crowd {
+    /// Crowd statistics of the run so far.
+    pub fn stats(&mut self, threads: usize) -> CrowdStats {
+        let frames = self.timings().history.len() as u64;
+        let history = self.timings().history.clone();
+        let frame_ms: Vec<f64> = history.iter().map(|r| r.iter().sum()).collect();
+        let mut q = self.world.query::<(&SlothId, &SlothState, &Observer)>();
+        let mut rows: Vec<(u32, f32, u32, JudgeReport, GaitReport, bool)> = q
+            .iter(&self.world)
+            .map(|(id, s, o)| {
+                let stuck = s.0.time - o.last_step_s > STUCK_AFTER_S;
+                (
+                    id.0,
+                    s.0.time,
+                    s.0.turns,
+                    o.judge.finish(),
+                    o.stats.finish(),
+                    stuck,
+                )
+            })
+            .collect();
+        rows.sort_unstable_by_key(|r| r.0);
+        let judge = JudgeReport::aggregate(rows.iter().map(|r| &r.3))
+            .unwrap_or_else(|| crowd_judge().finish());
+        let gait = GaitReport::aggregate(rows.iter().map(|r| &r.4));
+        let stuck_ids: Vec<u32> = rows.iter().filter(|r| r.5).map(|r| r.0).collect();
+        let roaming = self.roaming();
+        let reports = || rows.iter().map(|r| (r.0, &r.3));
+        let worst_sloths = WorstSloths {
+            max_grip_slip: worst_by(reports(), |j| j.max_grip_slip_m),
+            max_surface_gap: worst_by(reports(), |j| j.max_surface_gap_m),
+            max_reach_ratio: worst_by(reports(), |j| j.max_reach_ratio),
+            max_penetration: worst_by(reports(), |j| j.max_penetration_m),
+            min_limbs_in_contact: worst_by(reports(), |j| -(j.min_limbs_in_contact as f32)),
+        };
+        let time_s = rows.first().map_or(0.0, |r| r.1);
+        let state_hash = format!("{:016x}", self.state_hash());
+        CrowdStats {
+            sloths: rows.len() as u32,
+            frames,
+            dt: self.spec.dt,
+            time_s,
+            threads,
+            seed: self.spec.seed,
+            state_hash,
+            speed_mps_mean: gait.speed_mps_mean,
+            frame_ms: Percentiles::of(&frame_ms),
+            stages_ms: StagesMs::of(&history),
+            observe_ms: Percentiles::of(&self.observe_ms),
+            traces_per_frame_mean: self.timings().traces_total as f64 / frames.max(1) as f64,
+            max_grip_slip_m: judge.max_grip_slip_m,
+            max_surface_gap_m: judge.max_surface_gap_m,
+            max_reach_ratio: judge.max_reach_ratio,
+            joint_limit_violations: judge.joint_limit_violations,
+            min_limbs_in_contact: judge.min_limbs_in_contact,
+            max_penetration_m: judge.max_penetration_m,
+            head_below_hips_on_trunk_frames: judge.head_below_hips_on_trunk_frames,
+            nan_count: judge.nan_count,
+            stuck_sloths: stuck_ids.len() as u32,
+            stuck_ids: stuck_ids.into_iter().take(100).collect(),
+            turn_backs: rows.iter().map(|r| r.2 as u64).sum(),
+            roaming,
+            worst_sloths,
+            gait,
+            judge,
+        }
+    }
+
+    /// Coverage of the forest by the crowd (see [`Roaming`]).
+    fn roaming(&mut self) -> Roaming {
+        let scene = self.world.resource::<Locomotion>().traces.scene();
+        let n = scene.supports().len();
+        let kinds: Vec<SupportKind> = scene.supports().iter().map(|s| s.kind).collect();
+        let mut visited = vec![false; n];
+        let mut climbed = vec![false; n];
+        let mut r = Roaming {
+            supports: n as u32,
+            ..Roaming::default()
+        };
+        let (mut frames, mut trunk_frames, mut per_sloth) = (0u64, 0u64, 0u64);
+        let mut sloths = 0u32;
+        let mut q = self.world.query::<&Observer>();
+        for o in q.iter(&self.world) {
+            sloths += 1;
+            per_sloth += o.visited.len() as u64;
+            for &sid in &o.visited {
+                visited[sid.0 as usize] = true;
+                climbed[sid.0 as usize] = kinds[sid.0 as usize] == SupportKind::Trunk;
+            }
+            frames += o.frames;
+            trunk_frames += o.trunk_frames;
+            r.branch_trunk_changes += u64::from(o.kind_changes);
+            r.sloths_changing_kind += u32::from(o.kind_changes > 0);
+        }
+        r.supports_visited = visited.iter().filter(|&&v| v).count() as u32;
+        r.trunks_climbed = climbed.iter().filter(|&&v| v).count() as u32;
+        r.supports_per_sloth_mean = per_sloth as f32 / sloths.max(1) as f32;
+        r.trunk_frame_share = trunk_frames as f32 / frames.max(1) as f32;
+        r
+    }
+}
