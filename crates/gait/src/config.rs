@@ -82,6 +82,42 @@ pub struct LocomotionConfig {
     pub hind_transfer_trace_cap_m: f32,
     /// Hindquarter "offset back" during transfers (thesis: 0.15 m).
     pub offset_back_m: f32,
+    /// Fraction of reach a planted limb must keep at least (a grip closer to
+    /// its root is too folded).
+    pub min_reach_fraction: f32,
+    /// Grips keep this far from a support's ends.
+    pub end_margin_m: f32,
+    /// Leg order: a hind grip stays this far behind every fore grip along the
+    /// body, and a trailing fore grip this far ahead of every hind grip.
+    pub leg_order_margin_m: f32,
+    /// A side's fore and hind grips stay this far apart along the body
+    /// (formula 6 takes the body's heading from them).
+    pub same_side_spacing_m: f32,
+    /// A limb never lands further ahead of the other limb of its girdle than
+    /// this fraction of `max_step_m`, so that limb keeps a window to step into.
+    pub max_girdle_lead: f32,
+    /// Branch → trunk: how far a fore grip may climb ahead of the hind grips
+    /// along the body.
+    pub max_transfer_spread_m: f32,
+    /// A step across a branch ↔ trunk junction may be this many `max_step_m`
+    /// long: it reaches around the trunk, and the reach checks bound it.
+    pub transfer_step_factor: f32,
+    /// Branch → trunk: a fore limb takes the trunk at least this far above the
+    /// hind limbs' grips (head up), and the hind limbs on the branch stay this
+    /// far below the fore limbs on the trunk.
+    pub head_up_margin_m: f32,
+    /// On a branch by a trunk, a body hanging below the branch that would come
+    /// within this distance of the trunk rolls about the branch clear of it,
+    /// all the way (level with the branch) where it would touch it. With 0.08
+    /// the scenario matrix's trunk_branch sweep passes the same angles, with
+    /// 0.12 it loses 120° and 150°.
+    pub hang_clearance_m: f32,
+    /// A sloth stops (no grip) after this many step searches in a row found
+    /// nothing (8: two full gait cycles in which no limb could move).
+    pub stop_after_failed_searches: u8,
+    /// Wander mode: a sloth stopped for want of a grip tries again after this
+    /// long (sloths that boxed it in may have moved on).
+    pub wander_retry_s: f32,
 }
 
 impl Default for LocomotionConfig {
@@ -127,6 +163,17 @@ impl LocomotionConfig {
             max_reach_fraction: 0.97,
             hind_transfer_trace_cap_m: 0.10,
             offset_back_m: 0.15,
+            min_reach_fraction: 0.3,
+            end_margin_m: 0.03,
+            leg_order_margin_m: 0.0,
+            same_side_spacing_m: 0.15,
+            max_girdle_lead: 0.8,
+            max_transfer_spread_m: 0.55,
+            transfer_step_factor: 1.5,
+            head_up_margin_m: 0.05,
+            hang_clearance_m: 0.1,
+            stop_after_failed_searches: 8,
+            wander_retry_s: 5.0,
         };
         match profile {
             Profile::Free => free,
@@ -278,6 +325,32 @@ impl LocomotionConfig {
             1.0,
         )?;
         check("offset_back_m", self.offset_back_m, 0.0, 0.5)?;
+        check(
+            "min_reach_fraction",
+            self.min_reach_fraction,
+            0.0,
+            self.max_reach_fraction,
+        )?;
+        check("end_margin_m", self.end_margin_m, 0.0, 0.5)?;
+        check("leg_order_margin_m", self.leg_order_margin_m, 0.0, 0.3)?;
+        check("same_side_spacing_m", self.same_side_spacing_m, 0.0, 1.0)?;
+        check("max_girdle_lead", self.max_girdle_lead, 0.0, 2.0)?;
+        check(
+            "max_transfer_spread_m",
+            self.max_transfer_spread_m,
+            0.0,
+            2.0,
+        )?;
+        check("transfer_step_factor", self.transfer_step_factor, 1.0, 3.0)?;
+        check("head_up_margin_m", self.head_up_margin_m, 0.0, 0.5)?;
+        check("hang_clearance_m", self.hang_clearance_m, 0.001, 0.5)?;
+        check(
+            "stop_after_failed_searches",
+            f32::from(self.stop_after_failed_searches),
+            1.0,
+            255.0,
+        )?;
+        check("wander_retry_s", self.wander_retry_s, 0.0, 600.0)?;
         Ok(())
     }
 }

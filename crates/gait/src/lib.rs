@@ -11,15 +11,16 @@ pub mod observe;
 pub use observe::{LimbObservation, SlothObservation};
 pub mod config;
 pub mod crowd;
+pub mod env;
 pub mod path;
 pub mod rigdata;
 pub mod sloth;
 
 pub use config::{ConfigError, LocomotionConfig, Profile, Sequence};
 pub use crowd::{CrowdGrid, HashedPoint};
+pub use env::{IK_TOLERANCE_M, LocoEnv, LocoView, crowd_points};
 pub use path::{Adjacency, AxisPoint, axis_at, project, surface_gap};
 pub use rigdata::RigData;
 pub use sloth::{
-    BodyMemo, Fallback, Grip, LimbPhase, LimbState, Sloth, SolveMemo, SpawnHint, Status,
-    TraceBatch, World,
+    BodyMemo, Fallback, Grip, LimbPhase, LimbState, Sloth, SolveMemo, SpawnHint, Status, TraceBatch,
 };

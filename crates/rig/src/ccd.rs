@@ -257,38 +257,16 @@ pub fn solve(
     solve_local_dispatch(chain, target, pose, params)
 }
 
-/// [`solve_local`], the AVX2 build where the CPU has it (params already validated,
-/// target in the chain-root frame, pose finite).
-#[inline(always)]
-pub(crate) fn solve_local_dispatch(
-    chain: &LimbChain,
-    target: Vec3A,
-    pose: &mut ChainPose,
-    params: &CcdParams,
-) -> CcdResult {
-    #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx2") {
-        // SAFETY: the CPU has AVX2 (checked just above).
-        return unsafe { solve_local_avx2(chain, target, pose, params) };
-    }
-    solve_local(chain, target, pose, params)
-}
-
-/// [`solve_local`] compiled with AVX2 enabled, picked at run time (`std` caches the CPU
-/// check). The solver is short vector code on `glam`'s SSE2 types; with the default
-/// x86-64 target those are 2-operand instructions, and about a fifth of the solve was
-/// register copies. The VEX (3-operand) encoding drops most of them. Same IEEE
-/// operations in the same order (Rust never fuses a multiply and an add), so both
-/// builds give bit-identical poses.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-fn solve_local_avx2(
-    chain: &LimbChain,
-    target: Vec3A,
-    pose: &mut ChainPose,
-    params: &CcdParams,
-) -> CcdResult {
-    solve_local(chain, target, pose, params)
+avx2_dispatch! {
+    /// [`solve_local`], the AVX2 build where the CPU has it (params already validated,
+    /// target in the chain-root frame, pose finite).
+    #[inline(always)]
+    pub(crate) fn solve_local_dispatch / solve_local_avx2(
+        chain: &LimbChain,
+        target: Vec3A,
+        pose: &mut ChainPose,
+        params: &CcdParams,
+    ) -> CcdResult => solve_local;
 }
 
 /// [`solve`] with the target already in the chain-root frame and params already
@@ -346,40 +324,20 @@ pub(crate) struct SweepFrom {
     pub(crate) reach_step: bool,
 }
 
-/// [`solve_local`] continued from `from` (the same sweeps, polish and smoothness
-/// guard as an uninterrupted solve from `start`, whose error was `start_err`).
-/// [`resume_local_avx2`] where the CPU has AVX2.
-#[inline(always)]
-pub(crate) fn resume_local_dispatch(
-    chain: &LimbChain,
-    target: Vec3A,
-    start: &ChainPose,
-    start_err: f32,
-    pose: &mut ChainPose,
-    params: &CcdParams,
-    from: SweepFrom,
-) -> CcdResult {
-    #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx2") {
-        // SAFETY: the CPU has AVX2 (checked just above).
-        return unsafe { resume_local_avx2(chain, target, start, start_err, pose, params, from) };
-    }
-    resume_local(chain, target, start, start_err, pose, params, from)
-}
-
-/// [`resume_local`] compiled with AVX2 (see [`solve_local_avx2`]).
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-fn resume_local_avx2(
-    chain: &LimbChain,
-    target: Vec3A,
-    start: &ChainPose,
-    start_err: f32,
-    pose: &mut ChainPose,
-    params: &CcdParams,
-    from: SweepFrom,
-) -> CcdResult {
-    resume_local(chain, target, start, start_err, pose, params, from)
+avx2_dispatch! {
+    /// [`solve_local`] continued from `from` (the same sweeps, polish and smoothness
+    /// guard as an uninterrupted solve from `start`, whose error was `start_err`):
+    /// [`resume_local`] in its AVX2 build where the CPU has AVX2.
+    #[inline(always)]
+    pub(crate) fn resume_local_dispatch / resume_local_avx2(
+        chain: &LimbChain,
+        target: Vec3A,
+        start: &ChainPose,
+        start_err: f32,
+        pose: &mut ChainPose,
+        params: &CcdParams,
+        from: SweepFrom,
+    ) -> CcdResult => resume_local;
 }
 
 #[inline(always)]
@@ -397,37 +355,18 @@ fn resume_local(
     smooth_guard(chain, target, start, start_err, pose, params, result)
 }
 
-/// [`smooth_guard`] where the CPU has AVX2 (see [`solve_local_avx2`]).
-#[inline(always)]
-pub(crate) fn smooth_guard_dispatch(
-    chain: &LimbChain,
-    target: Vec3A,
-    start: &ChainPose,
-    start_err: f32,
-    pose: &mut ChainPose,
-    params: &CcdParams,
-    result: CcdResult,
-) -> CcdResult {
-    #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx2") {
-        // SAFETY: the CPU has AVX2 (checked just above).
-        return unsafe { smooth_guard_avx2(chain, target, start, start_err, pose, params, result) };
-    }
-    smooth_guard(chain, target, start, start_err, pose, params, result)
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-fn smooth_guard_avx2(
-    chain: &LimbChain,
-    target: Vec3A,
-    start: &ChainPose,
-    start_err: f32,
-    pose: &mut ChainPose,
-    params: &CcdParams,
-    result: CcdResult,
-) -> CcdResult {
-    smooth_guard(chain, target, start, start_err, pose, params, result)
+avx2_dispatch! {
+    /// [`smooth_guard`] in its AVX2 build where the CPU has AVX2.
+    #[inline(always)]
+    pub(crate) fn smooth_guard_dispatch / smooth_guard_avx2(
+        chain: &LimbChain,
+        target: Vec3A,
+        start: &ChainPose,
+        start_err: f32,
+        pose: &mut ChainPose,
+        params: &CcdParams,
+        result: CcdResult,
+    ) -> CcdResult => smooth_guard;
 }
 
 /// Target moves up to this far (metres) count as frame-to-frame tracking.

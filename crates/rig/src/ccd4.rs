@@ -281,37 +281,17 @@ fn solve8_avx2(
     lanes8::solve_impl(chains, layout, roots, targets, poses, params, tols)
 }
 
-/// [`lanes4::solve_impl`], in its AVX2 build where the CPU has AVX2.
-fn solve4_dispatch(
-    chains: [&LimbChain; 4],
-    layout: Layout<'_>,
-    roots: [RootTransform; 4],
-    targets: [Vec3; 4],
-    poses: &mut [ChainPose; 4],
-    params: &CcdParams,
-    tols: [f32; 4],
-) -> [CcdResult; 4] {
-    #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx2") {
-        // SAFETY: the CPU has AVX2 (checked just above).
-        return unsafe { solve4_avx2(chains, layout, roots, targets, poses, params, tols) };
-    }
-    lanes4::solve_impl(chains, layout, roots, targets, poses, params, tols)
-}
-
-/// [`lanes4::solve_impl`] compiled with AVX2 (VEX encoding; same IEEE operations).
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-fn solve4_avx2(
-    chains: [&LimbChain; 4],
-    layout: Layout<'_>,
-    roots: [RootTransform; 4],
-    targets: [Vec3; 4],
-    poses: &mut [ChainPose; 4],
-    params: &CcdParams,
-    tols: [f32; 4],
-) -> [CcdResult; 4] {
-    lanes4::solve_impl(chains, layout, roots, targets, poses, params, tols)
+avx2_dispatch! {
+    /// [`lanes4::solve_impl`], in its AVX2 build where the CPU has AVX2.
+    fn solve4_dispatch / solve4_avx2(
+        chains: [&LimbChain; 4],
+        layout: Layout<'_>,
+        roots: [RootTransform; 4],
+        targets: [Vec3; 4],
+        poses: &mut [ChainPose; 4],
+        params: &CcdParams,
+        tols: [f32; 4],
+    ) -> [CcdResult; 4] => lanes4::solve_impl;
 }
 
 #[cfg(test)]

@@ -17,6 +17,41 @@
 //! assert!(result.reached);
 //! ```
 
+/// `avx2_dispatch! { fn dispatch / avx2(args) -> Ret => imp; }` defines
+/// `dispatch`, which runs `imp` in its AVX2 build (`avx2`, also defined here)
+/// where the CPU has AVX2 and the plain `imp` elsewhere.
+///
+/// The solvers are short vector code on `glam`'s SSE2 types; with the
+/// default x86-64 target those are 2-operand instructions, and about a fifth
+/// of a solve was register copies. The VEX (3-operand) encoding of the AVX2
+/// build drops most of them. Both builds run the same IEEE operations in the
+/// same order (Rust never fuses a multiply and an add), so they give the same
+/// bits (tested: `runtime_dispatch_is_bit_identical` and the others).
+/// `std` caches the CPU check.
+macro_rules! avx2_dispatch {
+    ($(#[$attr:meta])* $vis:vis fn $dispatch:ident / $avx2:ident
+        ($($arg:ident: $ty:ty),* $(,)?) -> $ret:ty => $imp:path;) => {
+        $(#[$attr])*
+        $vis fn $dispatch($($arg: $ty),*) -> $ret {
+            #[cfg(target_arch = "x86_64")]
+            if std::arch::is_x86_feature_detected!("avx2") {
+                // SAFETY: the CPU has AVX2 (checked just above), the one
+                // requirement for calling a `target_feature(enable = "avx2")`
+                // function.
+                return unsafe { $avx2($($arg),*) };
+            }
+            $imp($($arg),*)
+        }
+
+        #[doc = concat!("`", stringify!($imp), "` compiled with AVX2 enabled (see `avx2_dispatch!`).")]
+        #[cfg(target_arch = "x86_64")]
+        #[target_feature(enable = "avx2")]
+        fn $avx2($($arg: $ty),*) -> $ret {
+            $imp($($arg),*)
+        }
+    };
+}
+
 pub mod ccd;
 pub mod ccd4;
 pub mod chain;

@@ -217,37 +217,18 @@ pub(crate) struct Refined {
     pub iterations: u32,
 }
 
-/// Polish `pose` toward `target` (chain-root frame) within the limits, up to
-/// `max_iterations` Jacobians or until within `tolerance`. The pose is replaced only if
-/// the error went down. Runs [`refine_avx2`] where the CPU has AVX2.
-pub(crate) fn refine(
-    chain: &LimbChain,
-    target: Vec3A,
-    pose: &mut ChainPose,
-    tolerance: f32,
-    max_iterations: u32,
-) -> Refined {
-    #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx2") {
-        // SAFETY: the CPU has AVX2 (checked just above).
-        return unsafe { refine_avx2(chain, target, pose, tolerance, max_iterations) };
-    }
-    refine_impl(chain, target, pose, tolerance, max_iterations)
-}
-
-/// [`refine_impl`] compiled with AVX2 (VEX encoding, fewer register copies; the same
-/// IEEE operations in the same order, so the same result bit for bit: see
-/// `crate::ccd`'s `solve_local_avx2`).
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-fn refine_avx2(
-    chain: &LimbChain,
-    target: Vec3A,
-    pose: &mut ChainPose,
-    tolerance: f32,
-    max_iterations: u32,
-) -> Refined {
-    refine_impl(chain, target, pose, tolerance, max_iterations)
+avx2_dispatch! {
+    /// Polish `pose` toward `target` (chain-root frame) within the limits, up to
+    /// `max_iterations` Jacobians or until within `tolerance`. The pose is replaced
+    /// only if the error went down. Runs [`refine_impl`] in its AVX2 build where
+    /// the CPU has AVX2.
+    pub(crate) fn refine / refine_avx2(
+        chain: &LimbChain,
+        target: Vec3A,
+        pose: &mut ChainPose,
+        tolerance: f32,
+        max_iterations: u32,
+    ) -> Refined => refine_impl;
 }
 
 /// [`refine`] for any CPU.

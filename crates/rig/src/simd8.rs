@@ -22,8 +22,9 @@ pub(crate) struct F8(__m256);
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct M8(__m256);
 
-// SAFETY (every `unsafe` block below): AVX intrinsics; see the module docs —
-// they run only inside functions compiled with AVX on a CPU that has it.
+// SAFETY: register-only AVX intrinsics, reached only from AVX2-enabled code on a CPU with AVX2 (module docs).
+// Every `unsafe` block below is an AVX intrinsic: it runs only inside functions
+// compiled with AVX2 enabled, reached after the CPU check (see the module docs).
 
 impl F8 {
     pub(crate) const ZERO: F8 = F8::from_bits_const(0);
@@ -36,17 +37,20 @@ impl F8 {
 
     #[inline(always)]
     pub(crate) fn splat(x: f32) -> F8 {
+        // SAFETY: register-only AVX intrinsics, reached only from AVX2-enabled code on a CPU with AVX2 (module docs).
         unsafe { F8(_mm256_set1_ps(x)) }
     }
 
     #[inline(always)]
     pub(crate) fn from_array(a: [f32; 8]) -> F8 {
+        // SAFETY: AVX (module docs); the unaligned load reads the 8 `f32`s of `a`.
         unsafe { F8(_mm256_loadu_ps(a.as_ptr())) }
     }
 
     #[inline(always)]
     pub(crate) fn to_array(self) -> [f32; 8] {
         let mut a = [0.0f32; 8];
+        // SAFETY: AVX (module docs); the unaligned store writes the 8 `f32`s of `a`.
         unsafe { _mm256_storeu_ps(a.as_mut_ptr(), self.0) };
         a
     }
@@ -54,55 +58,65 @@ impl F8 {
     /// `m ? a : b` lane-wise (as `Vec4::select`).
     #[inline(always)]
     pub(crate) fn select(m: M8, a: F8, b: F8) -> F8 {
+        // SAFETY: register-only AVX intrinsics, reached only from AVX2-enabled code on a CPU with AVX2 (module docs).
         unsafe { F8(_mm256_blendv_ps(b.0, a.0, m.0)) }
     }
 
     #[inline(always)]
     pub(crate) fn cmplt(self, o: F8) -> M8 {
+        // SAFETY: register-only AVX intrinsics, reached only from AVX2-enabled code on a CPU with AVX2 (module docs).
         unsafe { M8(_mm256_cmp_ps::<_CMP_LT_OQ>(self.0, o.0)) }
     }
 
     #[inline(always)]
     pub(crate) fn cmple(self, o: F8) -> M8 {
+        // SAFETY: register-only AVX intrinsics, reached only from AVX2-enabled code on a CPU with AVX2 (module docs).
         unsafe { M8(_mm256_cmp_ps::<_CMP_LE_OQ>(self.0, o.0)) }
     }
 
     #[inline(always)]
     pub(crate) fn cmpgt(self, o: F8) -> M8 {
+        // SAFETY: register-only AVX intrinsics, reached only from AVX2-enabled code on a CPU with AVX2 (module docs).
         unsafe { M8(_mm256_cmp_ps::<_CMP_GT_OQ>(self.0, o.0)) }
     }
 
     #[inline(always)]
     pub(crate) fn cmpge(self, o: F8) -> M8 {
+        // SAFETY: register-only AVX intrinsics, reached only from AVX2-enabled code on a CPU with AVX2 (module docs).
         unsafe { M8(_mm256_cmp_ps::<_CMP_GE_OQ>(self.0, o.0)) }
     }
 
     #[inline(always)]
     pub(crate) fn cmpeq(self, o: F8) -> M8 {
+        // SAFETY: register-only AVX intrinsics, reached only from AVX2-enabled code on a CPU with AVX2 (module docs).
         unsafe { M8(_mm256_cmp_ps::<_CMP_EQ_OQ>(self.0, o.0)) }
     }
 
     /// Clears the sign bits (as `Vec4::abs`).
     #[inline(always)]
     pub(crate) fn abs(self) -> F8 {
+        // SAFETY: register-only AVX intrinsics, reached only from AVX2-enabled code on a CPU with AVX2 (module docs).
         unsafe { F8(_mm256_andnot_ps(_mm256_set1_ps(-0.0), self.0)) }
     }
 
     /// `minps` order: the second operand where either is NaN (as `Vec4::min`).
     #[inline(always)]
     pub(crate) fn min(self, o: F8) -> F8 {
+        // SAFETY: register-only AVX intrinsics, reached only from AVX2-enabled code on a CPU with AVX2 (module docs).
         unsafe { F8(_mm256_min_ps(self.0, o.0)) }
     }
 
     /// `maxps` order (as `Vec4::max`).
     #[inline(always)]
     pub(crate) fn max(self, o: F8) -> F8 {
+        // SAFETY: register-only AVX intrinsics, reached only from AVX2-enabled code on a CPU with AVX2 (module docs).
         unsafe { F8(_mm256_max_ps(self.0, o.0)) }
     }
 
     /// The magnitude of `self` with the sign of `s` (as `Vec4::copysign`).
     #[inline(always)]
     pub(crate) fn copysign(self, s: F8) -> F8 {
+        // SAFETY: register-only AVX intrinsics, reached only from AVX2-enabled code on a CPU with AVX2 (module docs).
         unsafe {
             let sign = _mm256_set1_ps(-0.0);
             F8(_mm256_or_ps(
@@ -115,6 +129,7 @@ impl F8 {
     /// IEEE square root (as `_mm_sqrt_ps`).
     #[inline(always)]
     pub(crate) fn sqrt(self) -> F8 {
+        // SAFETY: register-only AVX intrinsics, reached only from AVX2-enabled code on a CPU with AVX2 (module docs).
         unsafe { F8(_mm256_sqrt_ps(self.0)) }
     }
 }
@@ -123,6 +138,7 @@ impl Add for F8 {
     type Output = F8;
     #[inline(always)]
     fn add(self, o: F8) -> F8 {
+        // SAFETY: register-only AVX intrinsics, reached only from AVX2-enabled code on a CPU with AVX2 (module docs).
         unsafe { F8(_mm256_add_ps(self.0, o.0)) }
     }
 }
@@ -131,6 +147,7 @@ impl Sub for F8 {
     type Output = F8;
     #[inline(always)]
     fn sub(self, o: F8) -> F8 {
+        // SAFETY: register-only AVX intrinsics, reached only from AVX2-enabled code on a CPU with AVX2 (module docs).
         unsafe { F8(_mm256_sub_ps(self.0, o.0)) }
     }
 }
@@ -139,6 +156,7 @@ impl Mul for F8 {
     type Output = F8;
     #[inline(always)]
     fn mul(self, o: F8) -> F8 {
+        // SAFETY: register-only AVX intrinsics, reached only from AVX2-enabled code on a CPU with AVX2 (module docs).
         unsafe { F8(_mm256_mul_ps(self.0, o.0)) }
     }
 }
@@ -147,6 +165,7 @@ impl Div for F8 {
     type Output = F8;
     #[inline(always)]
     fn div(self, o: F8) -> F8 {
+        // SAFETY: register-only AVX intrinsics, reached only from AVX2-enabled code on a CPU with AVX2 (module docs).
         unsafe { F8(_mm256_div_ps(self.0, o.0)) }
     }
 }
@@ -156,6 +175,7 @@ impl Neg for F8 {
     /// Flips the sign bits (as `Vec4`'s `Neg`).
     #[inline(always)]
     fn neg(self) -> F8 {
+        // SAFETY: register-only AVX intrinsics, reached only from AVX2-enabled code on a CPU with AVX2 (module docs).
         unsafe { F8(_mm256_xor_ps(_mm256_set1_ps(-0.0), self.0)) }
     }
 }
@@ -163,12 +183,14 @@ impl Neg for F8 {
 impl M8 {
     #[inline(always)]
     pub(crate) fn splat(v: bool) -> M8 {
+        // SAFETY: register-only AVX intrinsics, reached only from AVX2-enabled code on a CPU with AVX2 (module docs).
         unsafe { M8(_mm256_castsi256_ps(_mm256_set1_epi32(-i32::from(v)))) }
     }
 
     /// Lane `i` in bit `i`.
     #[inline(always)]
     pub(crate) fn bitmask(self) -> u32 {
+        // SAFETY: register-only AVX intrinsics, reached only from AVX2-enabled code on a CPU with AVX2 (module docs).
         unsafe { _mm256_movemask_ps(self.0) as u32 }
     }
 
@@ -187,6 +209,7 @@ impl BitAnd for M8 {
     type Output = M8;
     #[inline(always)]
     fn bitand(self, o: M8) -> M8 {
+        // SAFETY: register-only AVX intrinsics, reached only from AVX2-enabled code on a CPU with AVX2 (module docs).
         unsafe { M8(_mm256_and_ps(self.0, o.0)) }
     }
 }
@@ -195,6 +218,7 @@ impl BitOr for M8 {
     type Output = M8;
     #[inline(always)]
     fn bitor(self, o: M8) -> M8 {
+        // SAFETY: register-only AVX intrinsics, reached only from AVX2-enabled code on a CPU with AVX2 (module docs).
         unsafe { M8(_mm256_or_ps(self.0, o.0)) }
     }
 }
@@ -203,6 +227,7 @@ impl Not for M8 {
     type Output = M8;
     #[inline(always)]
     fn not(self) -> M8 {
+        // SAFETY: register-only AVX intrinsics, reached only from AVX2-enabled code on a CPU with AVX2 (module docs).
         unsafe {
             let ones = _mm256_castsi256_ps(_mm256_set1_epi32(-1));
             M8(_mm256_xor_ps(self.0, ones))

@@ -1,11 +1,13 @@
 //! Components, resources and world construction.
 
 use bevy_ecs::prelude::*;
+// Re-exported so `crate::world::crowd_points` (crowd.rs) keeps working; it lives in gait.
+pub use slothsim_gait::crowd_points;
 use slothsim_gait::{
-    Adjacency, BodyMemo, CrowdGrid, HashedPoint, LocomotionConfig, RigData, Sloth, SolveMemo,
-    SpawnHint, TraceBatch, World as LocoWorld,
+    BodyMemo, CrowdGrid, HashedPoint, LocoEnv, LocoView, LocomotionConfig, Sloth, SolveMemo,
+    SpawnHint, TraceBatch,
 };
-use slothsim_rig::{CcdParams, Rig};
+use slothsim_rig::Rig;
 use slothsim_scene::{SupportId, TraceScene};
 
 /// Stable sloth id (spawn order); reductions iterate in this order.
@@ -49,85 +51,33 @@ pub struct CrowdPoints(pub [HashedPoint; 7]);
 #[derive(Component, Clone, Debug, Default)]
 pub struct Traces(pub TraceBatch);
 
-/// How close each frame's IK brings a claw to its target (metres).
-///
-/// A hanging sloth's planted limbs often sit with the elbow (knee) at its
-/// extension limit, their targets a fraction of a millimetre beyond what the
-/// shoulder can aim at: at 0.5 mm, 10 % of the limbs of a 10,000-sloth crowd
-/// missed it every frame and went on to the slower plain-CCD sweeps and polish
-/// (CcdSolve p95 15.5 ms on 2 threads). At 1 mm they stop after one sweep
-/// (11.3 ms); grip slip (2.2 mm) and stuck sloths are unchanged in a
-/// 2,000-sloth, 60 s run and the surface gap goes from 4.8 to 5.1 mm, against
-/// tolerances of 5 mm and 1 cm. Grips still hold: the step checks ask for
-/// 1.5 mm and CcdSolve moves the body when a planted claw is farther off.
-pub const IK_TOLERANCE_M: f32 = 1e-3;
-
-/// Everything read-only the kernels share: config, rig, forest BVH, adjacency.
+/// The locomotion kernels' shared environment ([`LocoEnv`]: config, rig,
+/// forest BVH, adjacency, IK parameters) as the world's resource; it reads as
+/// a [`LocoEnv`] (`Deref`).
 #[derive(Resource)]
-pub struct Locomotion {
-    /// Parameters (validated).
-    pub cfg: LocomotionConfig,
-    /// Rig data.
-    pub rig: RigData,
-    /// Body offset (formula 7), resolved.
-    pub body_offset: f32,
-    /// The forest with its BVH.
-    pub traces: TraceScene,
-    /// Support adjacency.
-    pub adjacency: Adjacency,
-    /// IK parameters.
-    pub ccd: CcdParams,
-}
+pub struct Locomotion(pub LocoEnv);
 
 impl Locomotion {
-    /// Validates `cfg` against the rig and builds the shared data.
+    /// Validates `cfg` against the rig and builds the shared data ([`LocoEnv::new`]).
     pub fn new(
         cfg: LocomotionConfig,
         rig: &Rig,
         traces: TraceScene,
     ) -> Result<Self, slothsim_gait::ConfigError> {
-        let rig = RigData::new(rig);
-        cfg.validate(rig.reach)?;
-        let body_offset = cfg
-            .body_vertical_offset_m
-            .unwrap_or_else(|| rig.auto_body_offset());
-        // Neighbours: supports a limb can reach from this one (parallel branches
-        // included), not only those that touch it.
-        let adjacency = Adjacency::build(traces.query(), rig.reach);
-        let ccd = CcdParams {
-            min_improvement: 1e-7,
-            tolerance: IK_TOLERANCE_M,
-            ..CcdParams::default()
-        };
-        Ok(Locomotion {
-            cfg,
-            rig,
-            body_offset,
-            traces,
-            adjacency,
-            ccd,
-        })
+        LocoEnv::new(cfg, rig, traces).map(Locomotion)
     }
 
     /// The kernels' view, with other sloths when in a crowd.
-    pub fn view_in<'a>(&'a self, crowd: Option<&'a CrowdNeighbours>) -> LocoWorld<'a> {
-        LocoWorld {
-            crowd: crowd.map(|c| &c.grid),
-            ..self.view()
-        }
+    pub fn view_in<'a>(&'a self, crowd: Option<&'a CrowdNeighbours>) -> LocoView<'a> {
+        self.0.view_with(crowd.map(|c| &c.grid))
     }
+}
 
-    /// The kernels' view (a lone sloth).
-    pub fn view(&self) -> LocoWorld<'_> {
-        LocoWorld {
-            cfg: &self.cfg,
-            rig: &self.rig,
-            body_offset: self.body_offset,
-            query: self.traces.query(),
-            adjacency: &self.adjacency,
-            ccd: &self.ccd,
-            crowd: None,
-        }
+impl std::ops::Deref for Locomotion {
+    type Target = LocoEnv;
+
+    fn deref(&self) -> &LocoEnv {
+        &self.0
     }
 }
 
@@ -157,20 +107,6 @@ impl CrowdNeighbours {
         self.grid
             .rebuild_groups(sloths.map(|(id, s)| (id, crowd_points(rig, s))));
     }
-}
-
-/// The points a sloth occupies for the others: body centre, hips, head and grips.
-pub fn crowd_points(rig: &RigData, s: &Sloth) -> [glam::Vec3; 7] {
-    let to_ws = |p: glam::Vec3| s.body_pos + s.body_rot * p;
-    [
-        s.body_pos,
-        to_ws(rig.hips_ms),
-        to_ws(rig.head_ms),
-        s.limbs[0].grip.point,
-        s.limbs[1].grip.point,
-        s.limbs[2].grip.point,
-        s.limbs[3].grip.point,
-    ]
 }
 
 /// Fixed time step and frame counter.

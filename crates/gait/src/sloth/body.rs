@@ -1,0 +1,506 @@
+//! BodyAverage (thesis §3.3, formulas 6 and 7; SPEC "Body averaging"): the
+//! swing arc each lifted limb travels, the body frame the paws imply
+//! (forward from formula 6, up toward the support, the roll about a branch
+//! that keeps the body clear of a trunk and the roll of a branch ↔ trunk
+//! transfer), and the body placed below the paws' mean (formula 7).
+
+use glam::{Quat, Vec3};
+use slothsim_rig::Limb;
+use slothsim_scene::{SupportId, SupportKind};
+
+use crate::path::project;
+use crate::rigdata::BODY_RADIUS;
+
+use super::collide::torso_penetration;
+use super::solve::KeyBits;
+use super::{LimbPhase, LocoView, Sloth};
+
+/// The body turns up to this fast (rad/s) without smoothing lag; faster
+/// changes of formula 6's rotation are smoothed (`body_smoothing_s`).
+const BODY_FREE_TURN_RATE: f32 = 1.5;
+
+/// The body's roll over a transfer follows the share of limbs on the trunk to this power.
+const TRANSFER_ROLL_POWER: f32 = 0.75;
+
+/// Mid-transfer the body's up leans this much (at most) away from the trunk,
+/// so the body clears it while the hind limbs are still on the branch. No
+/// more: every centimetre the body is pushed off the trunk is one the limbs
+/// reaching around it lack (0.3 stranded the second fore limb on a branch
+/// meeting the trunk from below at 135–140°; the stance checks reject any
+/// penetration a smaller lean would cause).
+const TRANSFER_AWAY: f32 = 0.15;
+
+/// A body less than this far off its branch's vertical plane hangs in it
+/// (m): it rolls to the right of its heading (see `Sloth::keep_hang_side`).
+const HANG_SIDE_TIE: f32 = 0.01;
+
+/// A trunk whose direction from the body is this far (cosine) to a side of
+/// the branch's vertical plane or more decides the roll: away from it; one
+/// in the plane (the fork below a branch) leaves it to the body's own side
+/// ([`Sloth::hang_side`]), with no roll where the two disagree halfway (a
+/// crowd sloth rolled its own way into a trunk beside the branch).
+const HANG_TRUNK_SIDE: f32 = 0.3;
+
+/// The most the body rolls about a branch to clear a trunk: level with the
+/// branch, beside it (radians).
+const HANG_MAX_ROLL: f32 = std::f32::consts::FRAC_PI_2;
+
+/// The roll is full only with the body heading out from the trunk at least
+/// this steeply (cosine to the trunk's radial direction), none heading
+/// across or toward it: a body coming along a branch to its trunk keeps
+/// below it until the transfer turns it (see `transfer_to_trunk`).
+const HANG_OUT_COS: f32 = 0.5;
+
+/// Words of a `BodyKey`: the body (position, rotation), the hang side and flag,
+/// the transfer (flag, supports, side, away), then per limb its phase, grip
+/// point and support, and target.
+const BODY_KEY_LEN: usize = 7 + 4 + 9 + 4 * 8;
+
+/// The bits of the fields [`Sloth::body_average`] reads or writes while no
+/// limb swings.
+type BodyKey = [u32; BODY_KEY_LEN];
+
+/// What [`Sloth::body_average_memo`] keeps of the sloth's last BodyAverage.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct BodyMemo {
+    /// The state a BodyAverage left unchanged.
+    fixed: Option<BodyKey>,
+}
+
+#[inline]
+fn smoothstep(t: f32) -> f32 {
+    let t = t.clamp(0.0, 1.0);
+    t * t * (3.0 - 2.0 * t)
+}
+
+/// The swing arc at progress `t` from grip `from` to grip `to` (points and
+/// surface normals): eased along the chord, lifted clear of the support
+/// along the normals' mean (`fallback`, the body's down, where they cancel).
+pub(super) fn swing_point(
+    from: (Vec3, Vec3),
+    to: (Vec3, Vec3),
+    t: f32,
+    clearance: f32,
+    fallback: Vec3,
+) -> Vec3 {
+    // Between nearly opposite normals (a grip crossing to the other side of
+    // a support) their mean says little: it leans toward `fallback` (away
+    // from the body's supports), so the arc does not swing on a rounding.
+    let sum = from.1 + to.1;
+    let n = (sum + fallback * (1.0 - sum.length()).max(0.0)).normalize_or(fallback);
+    let lift = clearance * (std::f32::consts::PI * t).sin();
+    from.0.lerp(to.0, smoothstep(t)) + n * lift
+}
+
+/// 1 for a trunk, 0 for a branch; from `a` to `b` eased by swing progress `t`.
+pub(super) fn trunk_blend(env: &LocoView<'_>, a: SupportId, b: SupportId, t: f32) -> f32 {
+    let k = |sid| f32::from(env.scene().support(sid).kind == SupportKind::Trunk);
+    let (ka, kb) = (k(a), k(b));
+    ka + (kb - ka) * smoothstep(t)
+}
+
+/// Formula 7's offset of the body below the paws, and the share of limbs on
+/// a trunk it was blended by (a branch ↔ trunk transfer also rolls the body
+/// by that share: see [`Sloth::body_frame`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct BodyOffset {
+    /// Metres below the mean of the paws.
+    metres: f32,
+    /// Share of limbs on a trunk, 0..1.
+    trunk_share: f32,
+    /// `transfer_to_branch`'s "offset back": metres the hindquarters are
+    /// moved off the trunk while the hind pair swings onto the branch.
+    pub(super) hind_back_m: f32,
+}
+
+/// Which side a body walking a trunk faces it from (see [`Sloth::body_frame`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) enum BodySide {
+    /// From where the body is now: what `body_average` draws, frame by
+    /// frame, so the drawn side follows the grips' mean a few frames late.
+    Body,
+    /// From the grips' mean: where the drawn side settles.
+    Grips,
+}
+
+/// Formula 7's offset of the body below the paws for limbs with trunk
+/// weights `weights`: the branch offset, blended toward the trunk offset by
+/// the share of limbs on a trunk.
+pub(super) fn body_offset(env: &LocoView<'_>, weights: [f32; 4]) -> BodyOffset {
+    let trunk = env.cfg.trunk_body_offset_m.unwrap_or(env.body_offset);
+    let share = weights.iter().sum::<f32>() * 0.25;
+    BodyOffset {
+        metres: env.body_offset + (trunk - env.body_offset) * share,
+        trunk_share: share,
+        hind_back_m: 0.0,
+    }
+}
+
+/// The hindquarters' "offset back" at swing progress `t` of the hind pair,
+/// as a share of `offset_back_m`: sin²(πt) rises from 0 and returns to 0 with
+/// zero slope at both ends, so the body never jumps.
+pub(super) fn hind_back_share(t: f32) -> f32 {
+    (std::f32::consts::PI * t.clamp(0.0, 1.0)).sin().powi(2)
+}
+
+/// Body frame for a support: (forward, up toward the support) at an axis point.
+/// Branch: up = world +Y made perpendicular to forward. Trunk: forward = the
+/// axis pointing up (head up), up = from the body toward the axis.
+pub(super) fn support_frame(
+    kind: SupportKind,
+    tangent_travel: Vec3,
+    axis_tangent: Vec3,
+    body_side: Vec3,
+) -> (Vec3, Vec3) {
+    match kind {
+        SupportKind::Branch => {
+            let f = tangent_travel;
+            let up =
+                (Vec3::Y - f * f.dot(Vec3::Y)).normalize_or(Vec3::Z.cross(f).normalize_or(Vec3::X));
+            (f, up)
+        }
+        SupportKind::Trunk => {
+            let f = if axis_tangent.y >= 0.0 {
+                axis_tangent
+            } else {
+                -axis_tangent
+            };
+            let up = -(body_side - f * f.dot(body_side)).normalize_or(f.any_orthonormal_vector());
+            (f, up)
+        }
+    }
+}
+
+/// Which way from the axis a limb's grip sits: its side, turned toward the
+/// body on trunks.
+pub(super) fn grip_out(kind: SupportKind, limb: Limb, f: Vec3, up: Vec3, trunk_angle: f32) -> Vec3 {
+    let right = f.cross(up);
+    let side = if limb.is_left() { -right } else { right };
+    match kind {
+        SupportKind::Branch => side,
+        SupportKind::Trunk => (side * trunk_angle.cos() - up * trunk_angle.sin()).normalize(),
+    }
+}
+
+/// The mean of four IK targets (formula 7's paws' mean).
+fn paws_mean(t: &[Vec3; 4]) -> Vec3 {
+    (t[0] + t[1] + t[2] + t[3]) * 0.25
+}
+
+pub(super) fn rotation_from(f: Vec3, up: Vec3) -> Quat {
+    let z = f.normalize_or(Vec3::Z);
+    let y = (up - z * z.dot(up)).normalize_or(z.any_orthonormal_vector());
+    let x = y.cross(z);
+    Quat::from_mat3(&glam::Mat3::from_cols(x, y, z)).normalize()
+}
+
+impl Sloth {
+    /// BodyAverage: advance swing arcs, then place the body (formulas 6, 7), smoothed.
+    pub fn body_average(&mut self, env: &LocoView<'_>, dt: f32) {
+        for (li, l) in self.limbs.iter_mut().enumerate() {
+            match l.phase {
+                LimbPhase::Planted | LimbPhase::Searching => l.target = l.grip.point,
+                LimbPhase::Swinging => {
+                    let dur = env.cfg.swing_duration(Limb::ALL[li]);
+                    l.swing_t = (l.swing_t + dt / dur).min(1.0);
+                    l.target = swing_point(
+                        (l.from, l.from_normal),
+                        (l.grip.point, l.grip.normal),
+                        l.swing_t,
+                        env.cfg.swing_clearance_m,
+                        self.body_rot * Vec3::NEG_Y,
+                    );
+                    if l.swing_t >= 1.0 {
+                        l.phase = LimbPhase::Planted;
+                        l.target = l.grip.point;
+                    }
+                }
+            }
+        }
+        // Formula 7's position is already continuous (swing arcs are), so it
+        // is used as is: lagging it would pull planted limbs off their grips.
+        // The rotation (formula 6) is smoothed against jumps (support changes,
+        // touch-down), but follows a slow, continuous turn exactly: any lag
+        // turns the hips away from the stance the step checks approved (a
+        // 0.6° lag moved a hind claw 4 mm off its grip in a 2,000-sloth run).
+        // Not at all during a branch ↔ trunk transfer: the roll is continuous
+        // already, and lagging it would pull planted limbs off their grips.
+        let (pos, rot) = self.averaged_body(env);
+        let k = if env.cfg.body_smoothing_s > 0.0 && self.transfer.is_none() {
+            let smooth = 1.0 - (-dt / env.cfg.body_smoothing_s).exp();
+            let angle = self.body_rot.angle_between(rot);
+            let free = BODY_FREE_TURN_RATE * dt;
+            if angle <= free {
+                1.0
+            } else {
+                smooth.max(free / angle)
+            }
+        } else {
+            1.0
+        };
+        self.body_rot = self.body_rot.slerp(rot, k).normalize();
+        self.body_pos = pos;
+    }
+
+    /// [`Sloth::body_average`], skipped where it would change nothing: while
+    /// no limb swings it is a deterministic function of the fields in a
+    /// `BodyKey` (and of `env` and `dt`, fixed for a run); when they hold the
+    /// bits a call through `memo` left unchanged, this call would leave them
+    /// unchanged again (a sloth between steps: about 40 % of the sloth-frames
+    /// of a crowd). `memo` belongs to this sloth, `env` and `dt`.
+    pub fn body_average_memo(&mut self, env: &LocoView<'_>, dt: f32, memo: &mut BodyMemo) {
+        let key = self.body_key();
+        if key.is_some() && memo.fixed == key {
+            return;
+        }
+        self.body_average(env, dt);
+        memo.fixed = key.filter(|k| self.body_key().as_ref() == Some(k));
+    }
+
+    /// The bits of every field [`Sloth::body_average`] reads or writes; `None`
+    /// while a limb swings.
+    fn body_key(&self) -> Option<BodyKey> {
+        if self.any_swinging() {
+            return None;
+        }
+        let mut k = KeyBits::<BODY_KEY_LEN>::new();
+        k.f32s(&self.body_pos.to_array());
+        k.f32s(&self.body_rot.to_array());
+        k.f32s(&self.hang_side.to_array());
+        k.u32s(&[self.hang_trunk.map_or(u32::MAX, |t| t.0)]);
+        match self.transfer {
+            Some(t) => {
+                k.u32s(&[1, t.to.0, t.trunk.0]);
+                k.f32s(&t.side.to_array());
+                k.f32s(&t.away.to_array());
+            }
+            None => k.u32s(&[0; 9]),
+        }
+        for l in &self.limbs {
+            k.u32s(&[l.phase as u32]);
+            k.f32s(&l.grip.point.to_array());
+            k.u32s(&[l.grip.support.0]);
+            k.f32s(&l.target.to_array());
+        }
+        Some(k.done())
+    }
+
+    /// Formulas 6 and 7 for the current targets: (position, rotation).
+    pub(super) fn averaged_body(&self, env: &LocoView<'_>) -> (Vec3, Quat) {
+        let mut offset = body_offset(env, self.trunk_weights(env));
+        if let Some(t) = self.hind_pair_swing_t() {
+            offset.hind_back_m = env.cfg.offset_back_m * self.hind_back_scale * hind_back_share(t);
+        }
+        self.body_for_targets(env, &self.targets(), offset, BodySide::Body)
+    }
+
+    pub(super) fn body_for_targets(
+        &self,
+        env: &LocoView<'_>,
+        t: &[Vec3; 4],
+        offset: BodyOffset,
+        side: BodySide,
+    ) -> (Vec3, Quat) {
+        let (f, up) = self.body_frame(env, t, offset, side);
+        let mean = paws_mean(t);
+        let (pos, rot) = (mean - up * offset.metres, rotation_from(f, up));
+        match self.transfer {
+            Some(tr) if offset.hind_back_m > 0.0 => {
+                self.hindquarters_back(env, tr.trunk, pos, rot, offset.hind_back_m)
+            }
+            _ => (pos, rot),
+        }
+    }
+
+    /// Body frame toward the support the fore limbs hold (formula 6 gives
+    /// forward). During a branch ↔ trunk transfer the body's up (toward the
+    /// support) is blended by `trunk_share` (the share of limbs on a trunk)
+    /// from world up (hanging below the branch) to facing the trunk from the
+    /// transfer's side: a roll about the long axis in one direction, chosen
+    /// when the transfer started, so it never passes through the degenerate
+    /// "up toward the trunk along forward" of a body facing the trunk.
+    fn body_frame(
+        &self,
+        env: &LocoView<'_>,
+        t: &[Vec3; 4],
+        offset: BodyOffset,
+        side: BodySide,
+    ) -> (Vec3, Vec3) {
+        let fwd = self.formula6_fwd(t);
+        let mean = paws_mean(t);
+        let s = env
+            .scene()
+            .support(self.limbs[Limb::LF.index()].grip.support);
+        let on_trunk = self.fore_on_trunk(env);
+        let up = if let Some(tr) = self.transfer {
+            // Rolled by a power of the share (the roll leads the limbs a
+            // little), and pushed off the trunk mid-transfer so the body
+            // clears it while the hind limbs are still on the branch.
+            let r = offset.trunk_share.powf(TRANSFER_ROLL_POWER);
+            let hang = self.hang_up(fwd, self.hang_roll(env, fwd, mean, offset.metres));
+            hang * (1.0 - r) - tr.side * r - tr.away * (TRANSFER_AWAY * 4.0 * r * (1.0 - r))
+        } else if on_trunk {
+            let a = project(s, mean);
+            let body_side = match side {
+                BodySide::Body => self.body_pos - a.point,
+                BodySide::Grips => mean - a.point,
+            };
+            -(body_side - fwd * fwd.dot(body_side)).normalize_or(self.body_rot * Vec3::Y * -1.0)
+        } else {
+            // On branches: below them, clear of the trunks they meet.
+            self.hang_up(fwd, self.hang_roll(env, fwd, mean, offset.metres))
+        };
+        let up = (up - fwd * fwd.dot(up)).normalize_or(self.body_rot * Vec3::Y);
+        (fwd, up)
+    }
+
+    /// Formula 6 for IK targets `t`: the average of the hind → fore
+    /// directions of both sides.
+    fn formula6_fwd(&self, t: &[Vec3; 4]) -> Vec3 {
+        let (lf, rf, lh, rh) = (
+            t[Limb::LF.index()],
+            t[Limb::RF.index()],
+            t[Limb::LH.index()],
+            t[Limb::RH.index()],
+        );
+        ((rf - rh).normalize_or_zero() + (lf - lh).normalize_or_zero())
+            .normalize_or(self.body_rot * Vec3::Z)
+    }
+
+    /// How far the body (heading `fwd`, paws' mean `mean`, `metres` below
+    /// it) rolls about its branch to clear a trunk, as a share of
+    /// [`HANG_MAX_ROLL`] (signed: + toward heading × up): in a transfer
+    /// under way, from its trunk; after a transfer onto a branch, from the trunk left
+    /// ([`Sloth::hang_trunk`]); else none (rolling from any trunk a branch
+    /// held meets, a crowd's sloths walking past trunks slipped grips by
+    /// 2 cm). From that trunk: none unless the body hanging below the branch
+    /// would come within [`hang_clearance_m`](crate::LocomotionConfig::hang_clearance_m) of it, all where it would touch
+    /// it, and only heading out from it ([`HANG_OUT_COS`]). Continuous in
+    /// the paws: the body never jumps between frames or stance checks.
+    fn hang_roll(&self, env: &LocoView<'_>, fwd: Vec3, mean: Vec3, metres: f32) -> f32 {
+        // A transfer only set up by a search (no limb on its target yet)
+        // rolls nothing: one that is not taken leaves no jump behind.
+        let under_way = self
+            .transfer
+            .filter(|tr| self.limbs.iter().any(|l| l.grip.support == tr.to));
+        let trunk = match (under_way, self.hang_trunk) {
+            (Some(tr), _) => tr.trunk,
+            (None, Some(trunk)) if !self.fore_on_trunk(env) => trunk,
+            _ => return 0.0,
+        };
+        let scene = env.scene();
+        let up0 = (Vec3::Y - fwd * fwd.dot(Vec3::Y)).normalize_or(Vec3::Y);
+        let lateral = fwd.cross(Vec3::Y).normalize_or_zero();
+        let own_side = if lateral.dot(self.hang_side) >= 0.0 {
+            1.0
+        } else {
+            -1.0
+        };
+        let pos = mean - up0 * metres;
+        let rot = rotation_from(fwd, up0);
+        let torso = [
+            pos + rot * env.rig.torso_ms[0],
+            pos + rot * env.rig.torso_ms[1],
+        ];
+        // The box the torso capsule grown by the clearance fills: a trunk's
+        // box apart from it is too far to matter (most trunks, most frames).
+        let clearance = env.cfg.hang_clearance_m;
+        let grow = Vec3::splat(BODY_RADIUS + clearance);
+        let (lo, hi) = (torso[0].min(torso[1]) - grow, torso[0].max(torso[1]) + grow);
+        let (blo, bhi) = env.adjacency.bounds(trunk);
+        if blo.cmpgt(hi).any() || bhi.cmplt(lo).any() {
+            return 0.0;
+        }
+        let s = scene.support(trunk);
+        let depth = torso_penetration(s, env.adjacency.segment_chunks(trunk), torso, -clearance);
+        if depth <= -clearance {
+            return 0.0;
+        }
+        let a = project(s, mean);
+        let radial = (mean - a.point) - a.tangent * a.tangent.dot(mean - a.point);
+        let heading_out = (fwd.dot(radial.normalize_or_zero()) / HANG_OUT_COS).clamp(0.0, 1.0);
+        let need = heading_out * ((depth + clearance) / clearance).clamp(0.0, 1.0);
+        // Away from a trunk off to a side of the branch; toward the body's
+        // own side of it where the trunk is below it (the fork), passing
+        // through no roll in between (continuous).
+        let trunk_side =
+            (lateral.dot((mean - a.point).normalize_or_zero()) / HANG_TRUNK_SIDE).clamp(-1.0, 1.0);
+        need * (trunk_side + (1.0 - trunk_side.abs()) * own_side)
+    }
+
+    /// At the start of a step search with no other limb in a step (and at
+    /// spawn), while the body does not roll about its branch
+    /// ([`Self::hang_roll`]): keeps the side of the branch it is on for the
+    /// next roll ([`Sloth::hang_side`]): across the heading, horizontal, the
+    /// way the body is off the branch's vertical plane (the right of the
+    /// heading when it hangs in it: a choice that holds while the heading
+    /// turns a little, unlike one read off the body's centimetres). The
+    /// step checks that follow and the drawn body roll the same way.
+    pub(super) fn keep_hang_side(&mut self, env: &LocoView<'_>) {
+        let t = self.targets();
+        let fwd = self.formula6_fwd(&t);
+        let mean = paws_mean(&t);
+        let metres = body_offset(env, self.trunk_weights(env)).metres;
+        if self.hang_roll(env, fwd, mean, metres) != 0.0 {
+            return;
+        }
+        self.hang_trunk = None;
+        let lateral = fwd.cross(Vec3::Y).normalize_or_zero();
+        self.hang_side = if lateral.dot(self.body_pos - mean) < -HANG_SIDE_TIE {
+            -lateral
+        } else {
+            lateral
+        };
+    }
+
+    /// The body's up on a branch heading `fwd`: world up turned about the
+    /// heading by the signed share `roll` of [`HANG_MAX_ROLL`]
+    /// ([`Self::hang_roll`]; + moves the body toward heading × up).
+    fn hang_up(&self, fwd: Vec3, roll: f32) -> Vec3 {
+        if roll == 0.0 {
+            return Vec3::Y;
+        }
+        // Turning up about the heading by -angle moves the body (below it)
+        // toward heading × up.
+        Quat::from_axis_angle(fwd, -roll * HANG_MAX_ROLL) * Vec3::Y
+    }
+
+    /// The body turned about its shoulders so that the hips move `back_m`
+    /// straight off the trunk's axis: the hindquarters swing out clear of
+    /// the trunk while the hind pair travels up onto the branch, and the
+    /// planted fore limbs' roots hardly move.
+    fn hindquarters_back(
+        &self,
+        env: &LocoView<'_>,
+        trunk: SupportId,
+        pos: Vec3,
+        rot: Quat,
+        back_m: f32,
+    ) -> (Vec3, Quat) {
+        let fore_ms = (Vec3::from(env.rig.roots_ms[Limb::LF.index()].position)
+            + Vec3::from(env.rig.roots_ms[Limb::RF.index()].position))
+            * 0.5;
+        let shoulders = pos + rot * fore_ms;
+        let hips = pos + rot * env.rig.hips_ms;
+        let a = project(env.scene().support(trunk), hips);
+        let radial = hips - a.point;
+        let out = (radial - a.tangent * a.tangent.dot(radial)).normalize_or_zero();
+        let from = (hips - shoulders).normalize_or_zero();
+        let to = (hips + out * back_m - shoulders).normalize_or_zero();
+        if from == Vec3::ZERO || to == Vec3::ZERO {
+            return (pos, rot);
+        }
+        let q = Quat::from_rotation_arc(from, to);
+        (shoulders + q * (pos - shoulders), (q * rot).normalize())
+    }
+
+    /// How much each limb is on a trunk (1) or a branch (0); a swinging limb
+    /// blends its old and new support as it travels, so the body offset that
+    /// depends on it (see [`body_offset`]) changes continuously.
+    pub(super) fn trunk_weights(&self, env: &LocoView<'_>) -> [f32; 4] {
+        self.limbs.map(|l| match l.phase {
+            LimbPhase::Swinging => trunk_blend(env, l.from_support, l.grip.support, l.swing_t),
+            _ => trunk_blend(env, l.grip.support, l.grip.support, 1.0),
+        })
+    }
+}

@@ -1,0 +1,442 @@
+//! One step-search candidate judged in named stages (thesis §3.3
+//! `FindNextStep`, formulas 3–5, conditions "CheckLegsOrder", "within the
+//! limb's length", "minimum step"; SPEC "Step search" items 1–5): where the
+//! grip would be ([`Placement`]), step length, leg order and head-up, other
+//! sloths, then the reach checks. A candidate that passes is traced next
+//! frame ([`Sloth::step_search`]). The stages are pure: the order they run
+//! in only decides how early a candidate is rejected.
+
+use glam::{Quat, Vec3};
+use slothsim_rig::Limb;
+use slothsim_scene::{LineTrace, SupportId, SupportKind, TraceRequest};
+
+use crate::path::{AxisPoint, axis_at};
+
+use super::body::{grip_out, support_frame};
+use super::route::{SIDE_STEP_AXIAL_SLACK, SideStep};
+use super::{Candidate, Grip, LimbPhase, LocoView, Search, Sloth, Transfer};
+
+/// How far outside the surface a grip trace starts.
+const TRACE_STANDOFF: f32 = 0.15;
+
+/// Where a step-search candidate is looked for and what the search allows there.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct CandidateAt {
+    /// Limb index.
+    pub(super) limb: usize,
+    /// The support.
+    pub(super) support: SupportId,
+    /// Arc length on it.
+    pub(super) u: f32,
+    /// Travel direction along it.
+    pub(super) sdir: f32,
+    /// A retreat: the step must go backward ([`Search::retreat`]).
+    pub(super) retreat: bool,
+    /// A plain step that holds only with the limb lifting off next in the
+    /// air may commit that limb's step ([`Sloth::planned_lift`]). Only the
+    /// traced search does; the lookahead and the search for a committed step
+    /// itself do not.
+    may_commit_lift: bool,
+}
+
+impl CandidateAt {
+    /// The traced search's candidate at `u` of limb `li`'s search `sr`.
+    pub(super) fn in_search(li: usize, sr: &Search, u: f32) -> Self {
+        CandidateAt {
+            limb: li,
+            support: sr.support,
+            u,
+            sdir: sr.sdir,
+            retreat: sr.retreat,
+            may_commit_lift: true,
+        }
+    }
+
+    /// A forward candidate at `u` of the range `sr` that commits nothing
+    /// (the lookahead and the search for a committed step).
+    pub(super) fn probe(li: usize, sr: &Search, u: f32) -> Self {
+        CandidateAt {
+            retreat: false,
+            may_commit_lift: false,
+            ..Self::in_search(li, sr, u)
+        }
+    }
+}
+
+/// Where a candidate's grip would be, and the frame it is judged in (stage 1,
+/// [`Sloth::place`]).
+#[derive(Clone, Copy, Debug)]
+struct Placement {
+    limb: Limb,
+    kind: SupportKind,
+    /// The axis point at the candidate's arc length.
+    axis: AxisPoint,
+    /// A transfer onto the candidate's support.
+    transfer: Option<Transfer>,
+    /// A side step around the trunk the limb holds.
+    side_step: Option<SideStep>,
+    /// A step across a branch ↔ trunk junction (onto the transfer's support).
+    transfer_step: bool,
+    /// Direction from the axis to the grip (the limb's side).
+    out: Vec3,
+    /// The grip on the support model's surface (formula 3).
+    grip: Vec3,
+    /// The limb's grip now.
+    cur: Vec3,
+    /// Travel direction the step length is measured along.
+    travel: Vec3,
+    /// The body's forward now (leg order is measured along it).
+    body_fwd: Vec3,
+    /// Longest step allowed.
+    max_step: f32,
+    /// `transfer_to_branch`'s hind pair: the partner limb, its mirror grip on
+    /// the branch's other side at the same arc length, and that grip's out.
+    pair: Option<(usize, Vec3, Vec3)>,
+}
+
+impl Placement {
+    /// The trace that confirms the grip, and what the search keeps of it.
+    fn trace(
+        &self,
+        at: &CandidateAt,
+        back_scale: f32,
+        lift: Option<(u8, Grip)>,
+    ) -> (TraceRequest, Candidate) {
+        let a = self.axis;
+        let origin = a.point + self.out * (a.radius + TRACE_STANDOFF);
+        let req = TraceRequest::Line(LineTrace {
+            origin,
+            dir: -self.out,
+            max_dist: TRACE_STANDOFF + a.radius,
+        });
+        (
+            req,
+            Candidate {
+                limb: at.limb as u8,
+                support: at.support,
+                u: at.u,
+                sdir: at.sdir,
+                out: self.out,
+                point: self.grip,
+                pair: self.pair.map(|(pi, p2, out2)| (pi as u8, p2, out2)),
+                back_scale,
+                lift,
+            },
+        )
+    }
+}
+
+impl Sloth {
+    /// A candidate for `at`, if it passes the cheap checks (step length, leg
+    /// order, head up, other sloths) and the reach checks at the stances the
+    /// step implies: its trace. `checks` counts the reach checks made.
+    pub(super) fn candidate(
+        &self,
+        env: &LocoView<'_>,
+        at: &CandidateAt,
+        checks: &mut u32,
+    ) -> Option<(TraceRequest, Candidate)> {
+        let p = self.place(env, at);
+        if !self.step_in_range(env, at, &p)
+            || !self.keeps_leg_order(env, &p)
+            || !self.keeps_head_up(env, &p)
+            || self.crowded(env, &p)
+        {
+            return None;
+        }
+        let (back_scale, lift) = self.reach_at(env, at, &p, checks)?;
+        Some(p.trace(at, back_scale, lift))
+    }
+
+    /// Stage 1: where the grip would be (formula 3: on the surface on the
+    /// limb's side; around a trunk, turned toward the body), in the body
+    /// frame the support implies, and the travel direction the step is
+    /// measured along.
+    fn place(&self, env: &LocoView<'_>, at: &CandidateAt) -> Placement {
+        let (li, sid, sdir) = (at.limb, at.support, at.sdir);
+        let limb = Limb::ALL[li];
+        let s = env.scene().support(sid);
+        let a = axis_at(s, at.u);
+        // A transfer onto this trunk: the grips sit around the side the body will face it from.
+        let transfer = self.transfer.filter(|t| t.to == sid);
+        // A side step: around the side the body faces the trunk from, turned toward the goal's.
+        let side_step = if sid == self.limbs[li].grip.support {
+            self.side_step(env, sid)
+        } else {
+            None
+        };
+        let body_side = match (transfer, side_step) {
+            (Some(t), _) if t.trunk == sid => t.side,
+            (_, Some(ss)) => Quat::from_axis_angle(ss.axis_up, ss.turn) * ss.side_now,
+            _ => self.body_pos - a.point,
+        };
+        let transfer_step = transfer.is_some() && sid != self.limbs[li].grip.support;
+        // Body forward is the travel direction × dir (tail first when dir < 0).
+        let (f, up) = support_frame(s.kind, a.tangent * (sdir * self.dir), a.tangent, body_side);
+        let out = grip_out(
+            s.kind,
+            limb,
+            f,
+            up,
+            env.cfg.trunk_grip_angle_deg.to_radians(),
+        );
+        // On the trunk being transferred to, steps go up its axis (head up)
+        // whichever way the body still faces.
+        // So do a fore limb's steps along the branch being transferred to:
+        // the body, still facing up the trunk, turns to the branch only as
+        // they go (a branch falling away from the junction is behind the
+        // body's heading: trunk_branch at 140°–160° stopped there).
+        let travel = match transfer {
+            Some(t) if t.trunk == sid && !transfer_step => a.tangent * sdir,
+            Some(_) if limb.is_fore() && !transfer_step => a.tangent * sdir,
+            _ => self.travel(),
+        };
+        let max_step = if transfer_step {
+            env.cfg.max_step_m * env.cfg.transfer_step_factor
+        } else {
+            env.cfg.max_step_m
+        };
+        // transfer_to_branch's hind pair: the partner steps to the mirror grip
+        // on the branch's other side at the same arc length.
+        let pair = self.hind_pair(li, sid).map(|pi| {
+            let out2 = grip_out(
+                s.kind,
+                Limb::ALL[pi],
+                f,
+                up,
+                env.cfg.trunk_grip_angle_deg.to_radians(),
+            );
+            (pi, a.point + out2 * a.radius, out2)
+        });
+        Placement {
+            limb,
+            kind: s.kind,
+            axis: a,
+            transfer,
+            side_step,
+            transfer_step,
+            out,
+            grip: a.point + out * a.radius,
+            cur: self.limbs[li].grip.point,
+            travel,
+            body_fwd: self.body_rot * Vec3::Z,
+            max_step,
+            pair,
+        }
+    }
+
+    /// Stage 2: the step's length along the travel direction within
+    /// [min, max] (backward for a retreat; around the axis and toward the
+    /// goal's height for a side step), the hind pair's partner's step too,
+    /// and the pair lifting off only while both fore limbs hold.
+    fn step_in_range(&self, env: &LocoView<'_>, at: &CandidateAt, p: &Placement) -> bool {
+        let (approx, cur) = (p.grip, p.cur);
+        let step = (approx - cur).dot(p.travel);
+        let dist = approx.distance(cur);
+        // Changing support may be a sideways step (parallel branches): it only
+        // must not go backwards.
+        let min_step = if at.support == self.limbs[at.limb].grip.support {
+            env.cfg.min_step_m
+        } else {
+            0.0
+        };
+        let step_ok = if let Some(ss) = p.side_step.filter(|_| !at.retreat) {
+            // Around the axis (the way the body turns) and toward the goal's
+            // height, never much away from it.
+            let d = approx - cur;
+            let around = d.dot(ss.axis_up.cross(ss.side_now) * ss.turn.signum());
+            let along = d.dot(p.axis.tangent * at.sdir);
+            around >= 0.0 && along >= -SIDE_STEP_AXIAL_SLACK && around + along.max(0.0) >= min_step
+        } else if at.retreat {
+            step <= -env.cfg.min_step_m
+        } else {
+            // A transfer step goes where the other support is (reach decides).
+            p.transfer_step || step >= min_step
+        };
+        if !step_ok || dist > p.max_step {
+            return false;
+        }
+        if p.pair
+            .is_some_and(|(pi, p2, _)| p2.distance(self.limbs[pi].grip.point) > p.max_step)
+        {
+            return false;
+        }
+        // The hind pair lifts off together only while both fore limbs hold:
+        // two limbs stay in contact.
+        !p.pair.is_some_and(|(pi, ..)| {
+            (0..4).any(|k| k != at.limb && k != pi && self.limbs[k].phase == LimbPhase::Swinging)
+        })
+    }
+
+    /// Stage 3: leg order (thesis `CheckLegsOrder`), measured along the
+    /// body: hind grips never ahead of a fore grip, trailing fore limbs never
+    /// level with the hind ones, a side's fore and hind grips apart, onto a
+    /// trunk the fore limbs no further ahead than the hind limbs can follow,
+    /// and a limb landing level with or ahead of its girdle partner, never
+    /// more than [`crate::LocomotionConfig::max_girdle_lead`] ahead.
+    fn keeps_leg_order(&self, env: &LocoView<'_>, p: &Placement) -> bool {
+        let cfg = env.cfg;
+        let (limb, approx) = (p.limb, p.grip);
+        // Leg order: hind never ahead of a fore limb; never behind the opposite limb of the girdle.
+        let proj = |v: Vec3| v.dot(p.body_fwd);
+        let fore_min = proj(self.limbs[Limb::LF.index()].grip.point)
+            .min(proj(self.limbs[Limb::RF.index()].grip.point));
+        let hind_max = proj(self.limbs[Limb::LH.index()].grip.point)
+            .max(proj(self.limbs[Limb::RH.index()].grip.point));
+        if !limb.is_fore() && proj(approx) > fore_min - cfg.leg_order_margin_m {
+            return false;
+        }
+        // Tail first, the trailing fore limbs step toward the hind limbs:
+        // never level with them (formula 6's hind → fore directions would
+        // turn the body on centimetres of grip change).
+        if limb.is_fore() && proj(approx) < hind_max + cfg.leg_order_margin_m {
+            return false;
+        }
+        // Onto a trunk, the fore limbs climb no further ahead of the hind
+        // limbs than the hind limbs can follow from the branch.
+        if p.transfer.is_some()
+            && limb.is_fore()
+            && p.kind == SupportKind::Trunk
+            && proj(approx) - hind_max > cfg.max_transfer_spread_m
+        {
+            return false;
+        }
+        // A side's fore and hind grips keep apart along the body: formula 6
+        // takes the body's heading from them.
+        let same_side = self.limbs[limb.same_side().index()].grip.point;
+        if (proj(approx) - proj(same_side)).abs() < cfg.same_side_spacing_m {
+            return false;
+        }
+        if p.pair
+            .is_some_and(|(_, p2, _)| proj(p2) > fore_min - cfg.leg_order_margin_m)
+        {
+            return false;
+        }
+        let opp = self.limbs[limb.opposite().index()].grip.point;
+        let lead = (approx - opp).dot(p.travel);
+        // A limb normally lands level with or ahead of its girdle partner. One
+        // left more than a step behind it (transfer steps reach around a
+        // trunk and may split a girdle by more than a step) could never land
+        // level, and its partner may not lead further: it closes the gap as
+        // far as a step goes instead (the farthest valid candidate wins).
+        let cur_lead = (p.cur - opp).dot(p.travel);
+        let min_lead = if cur_lead < -(cfg.max_step_m - cfg.min_step_m) {
+            cur_lead + cfg.min_step_m
+        } else {
+            0.0
+        };
+        match p.side_step {
+            // Side-stepping, the girdle's limbs keep about level on the axis
+            // (around it, the pair is always apart by the grip angle).
+            Some(ss) => {
+                (approx - opp).dot(ss.axis_up).abs() <= cfg.max_girdle_lead * cfg.max_step_m
+            }
+            None => {
+                p.transfer_step || (min_lead..=cfg.max_girdle_lead * cfg.max_step_m).contains(&lead)
+            }
+        }
+    }
+
+    /// Stage 4: head up across a branch → trunk transfer (SPEC
+    /// `transfer_to_trunk`): a fore limb takes the trunk (and steps on it
+    /// while the hind limbs are on the branch) at least
+    /// [`crate::LocomotionConfig::head_up_margin_m`] above the hind grips, and
+    /// the hind limbs on the branch keep that far below the fore limbs on the
+    /// trunk.
+    fn keeps_head_up(&self, env: &LocoView<'_>, p: &Placement) -> bool {
+        let (limb, approx, a) = (p.limb, p.grip, p.axis);
+        let margin = env.cfg.head_up_margin_m;
+        if p.transfer.is_some() && limb.is_fore() && p.kind == SupportKind::Trunk {
+            let axis_up = if a.tangent.y >= 0.0 {
+                a.tangent
+            } else {
+                -a.tangent
+            };
+            let hind_top = [Limb::LH, Limb::RH]
+                .map(|h| self.limbs[h.index()].grip.point.dot(axis_up))
+                .into_iter()
+                .fold(f32::NEG_INFINITY, f32::max);
+            if approx.dot(axis_up) < hind_top + margin {
+                return false;
+            }
+        } else if self.transfer.is_some_and(|t| t.to == t.trunk)
+            && !limb.is_fore()
+            && p.kind != SupportKind::Trunk
+        {
+            // …and the hind limbs, still on the branch, stay that far below
+            // the fore limbs on the trunk (stepping up a branch to a trunk
+            // grip at branch height, the hips rose above the head: 1,453
+            // sloth-frames in a 2,000-sloth run).
+            let fore_on_trunk_bottom = [Limb::LF, Limb::RF]
+                .map(|f| self.limbs[f.index()].grip)
+                .into_iter()
+                .filter(|g| env.scene().support(g.support).kind == SupportKind::Trunk)
+                .map(|g| g.point.y)
+                .reduce(f32::min);
+            if fore_on_trunk_bottom.is_some_and(|y| approx.y > y - margin) {
+                return false;
+            }
+        }
+        true
+    }
+
+    /// Stage 5: the grip (and the hind pair's partner's) within another
+    /// sloth's clearance (their bodies and grips of the previous tick).
+    fn crowded(&self, env: &LocoView<'_>, p: &Placement) -> bool {
+        env.crowd.is_some_and(|g| {
+            g.blocked(self.id, p.grip) || p.pair.is_some_and(|(_, p2, _)| g.blocked(self.id, p2))
+        })
+    }
+
+    /// Stage 6: the reach checks ([`Sloth::step_reachable`]; the hind pair's
+    /// with the largest offset back that holds), counted in `checks`. A plain
+    /// step that holds only with the limb lifting off next in the air
+    /// commits that limb's step where `at` allows it. The hind pair's share
+    /// of the offset back and the committed step, if the step passes.
+    fn reach_at(
+        &self,
+        env: &LocoView<'_>,
+        at: &CandidateAt,
+        p: &Placement,
+        checks: &mut u32,
+    ) -> Option<(f32, Option<(u8, Grip)>)> {
+        let (li, sid) = (at.limb, at.support);
+        *checks += 1;
+        let mut back_scale = 0.0;
+        let reachable = match p.pair {
+            Some((pi, p2, out2)) => {
+                match self.pair_back_scale(env, &[(li, p.grip, p.out), (pi, p2, out2)], sid) {
+                    Some(k) => {
+                        back_scale = k;
+                        true
+                    }
+                    None => false,
+                }
+            }
+            None => self.step_reachable(env, li, p.grip, p.out, sid),
+        };
+        // Held only with the next limb to lift off in the air by the
+        // landing: a plain step commits that limb's step.
+        let plain = p.pair.is_none()
+            && !p.transfer_step
+            && !at.retreat
+            && p.side_step.is_none()
+            && sid == self.limbs[li].grip.support;
+        let lift = if !reachable && at.may_commit_lift && plain {
+            let grip = Grip {
+                point: p.grip,
+                normal: p.out,
+                support: sid,
+                u: at.u,
+                sdir: at.sdir,
+            };
+            self.planned_lift(env, li, grip, checks)
+        } else {
+            None
+        };
+        if !reachable && lift.is_none() {
+            return None;
+        }
+        Some((back_scale, lift))
+    }
+}

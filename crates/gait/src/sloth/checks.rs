@@ -1,0 +1,404 @@
+//! The reach and stance checks a step must pass before it is taken (thesis
+//! §3.3 `FindNextStep` condition "within the limb's length", made exact: CCD
+//! within the joint limits; SPEC "Step search" item 4): every stance the
+//! step passes through (arc points and landing) keeps each planted claw
+//! within reach of its grip and the body out of the supports.
+
+use glam::{Quat, Vec3};
+use slothsim_rig::{CcdParams, CcdResult, ChainPose, Limb, RootTransform};
+use slothsim_scene::SupportId;
+
+use super::body::{BodyOffset, BodySide, body_offset, hind_back_share, swing_point, trunk_blend};
+use super::solve::lanes8;
+use super::{Grip, LocoView, Sloth};
+
+/// Reach checks give up once a sweep gains less than this (metres)…
+const CHECK_MIN_IMPROVEMENT: f32 = 1e-5;
+
+/// …or after this many sweeps.
+const CHECK_MAX_ITERATIONS: u32 = 32;
+
+/// A reach check polishes (see `slothsim_rig::refine`) only sweeps that
+/// stalled within this distance (metres) of the target.
+const CHECK_POLISH_MAX_ERROR: f32 = 0.01;
+
+/// A step is taken only if CCD (within joint limits) gets the stepping limb's
+/// claw this close to its new grip from the stance that step implies…
+pub(super) const STANCE_IK_TOLERANCE: f32 = 0.0015;
+
+/// …and every other claw this close to the grip it holds.
+const HOLD_IK_TOLERANCE: f32 = 0.003;
+
+/// The same while the stepping limb is on its arc (transient; checked at
+/// [`SWING_CHECKS`]).
+const SWING_IK_TOLERANCE: f32 = 0.0035;
+
+/// Swing progress points at which a step's transient stance is checked.
+const SWING_CHECKS: [f32; 3] = [0.3, 0.55, 0.8];
+
+/// Stances a step with a lift-off during its swing passes through (see
+/// [`Sloth::lift_reachable`]): both limbs' arc points and both ends.
+const MAX_STANCES: usize = 2 * (SWING_CHECKS.len() + 1) + 1;
+
+/// Stances a step check solves: the arc's points and the end.
+const STANCE_CHECKS: usize = SWING_CHECKS.len() + 1;
+
+/// Further swing progress points at which a branch ↔ trunk step's body is
+/// checked for penetration (every 5 % with [`SWING_CHECKS`]).
+const TRANSFER_BODY_CHECKS: [f32; 16] = [
+    0.05, 0.1, 0.15, 0.2, 0.25, 0.35, 0.4, 0.45, 0.5, 0.6, 0.65, 0.7, 0.75, 0.85, 0.9, 0.95,
+];
+
+/// Whether CCD within the joint limits, from `pose`, gets the claw within
+/// `tol` of `target_ws` (and the error it ends at); `pose` is left where the
+/// solve ended. Solved only as close as the check needs (a passing check stops
+/// early); the limit-aware polish (see `slothsim_rig::refine`) runs only for
+/// sweeps that stalled within [`CHECK_POLISH_MAX_ERROR`] — close to a corner
+/// of the joint limits it may still get there, far off it would not.
+pub(super) fn reach_check(
+    chain: &slothsim_rig::LimbChain,
+    root: slothsim_rig::RootTransform,
+    target_ws: Vec3,
+    pose: &mut ChainPose,
+    tol: f32,
+    base: &CcdParams,
+) -> (bool, f32) {
+    let params = CcdParams {
+        tolerance: tol,
+        ..check_params(base)
+    };
+    let r = slothsim_rig::solve(chain, root, target_ws, pose, &params);
+    reach_check_polish(chain, root, target_ws, pose, tol, base, r.error)
+}
+
+/// The sweeps' parameters of [`reach_check`] (tolerance aside).
+fn check_params(base: &CcdParams) -> CcdParams {
+    CcdParams {
+        min_improvement: CHECK_MIN_IMPROVEMENT,
+        refine: false,
+        ..*base
+    }
+}
+
+/// The rest of [`reach_check`] after its sweeps ended at `error` with the
+/// limb at `pose`: the polish where it may help.
+fn reach_check_polish(
+    chain: &slothsim_rig::LimbChain,
+    root: slothsim_rig::RootTransform,
+    target_ws: Vec3,
+    pose: &mut ChainPose,
+    tol: f32,
+    base: &CcdParams,
+    error: f32,
+) -> (bool, f32) {
+    if error <= tol || error > CHECK_POLISH_MAX_ERROR || !base.refine {
+        return (error <= tol, error);
+    }
+    let params = CcdParams {
+        tolerance: tol,
+        refine: true,
+        ..check_params(base)
+    };
+    let r = slothsim_rig::solve(chain, root, target_ws, pose, &params);
+    (r.error <= tol, r.error)
+}
+
+/// One stance a step passes through (see [`Sloth::step_reachable`]): the
+/// four IK targets, how close each claw must get, and the body they imply.
+#[derive(Clone, Copy)]
+struct StanceCheck {
+    grips: [Vec3; 4],
+    tol: [f32; 4],
+    pos: Vec3,
+    rot: Quat,
+    /// The body offset it was placed with.
+    offset: BodyOffset,
+    /// The chain roots of that body.
+    roots: [RootTransform; 4],
+}
+
+impl Sloth {
+    /// Whether limb `li` can step to `grip` (surface `normal`): with the
+    /// stepping limb at points along its arc the others still reach their
+    /// grips (transient tolerance), and at the end every limb reaches its grip
+    /// (the stepping limb tightly); no stance pushes the body into a support.
+    ///
+    /// The checks run cheapest first over all four stances (root distances,
+    /// then torso penetration, then CCD within the joint limits), so most
+    /// rejections cost no IK at all.
+    pub(super) fn step_reachable(
+        &self,
+        env: &LocoView<'_>,
+        li: usize,
+        grip: Vec3,
+        normal: Vec3,
+        support: SupportId,
+    ) -> bool {
+        self.steps_reachable(env, &[(li, grip, normal)], support, 0.0)
+    }
+
+    /// [`Self::step_reachable`] for one or more limbs stepping together onto
+    /// `support` (`transfer_to_branch`'s hind pair: both on their arcs at the
+    /// same progress, the hindquarters offset back as they go).
+    fn steps_reachable(
+        &self,
+        env: &LocoView<'_>,
+        steps: &[(usize, Vec3, Vec3)],
+        support: SupportId,
+        back_scale: f32,
+    ) -> bool {
+        let mut grips = self.limbs.map(|l| l.grip.point);
+        let from = self.limbs.map(|l| (l.grip.point, l.grip.normal));
+        let mut weights = self.trunk_weights(env);
+        let pair = steps.len() > 1;
+        // Points of the arc as `body_average` will draw them (`Some(t)`), or the end.
+        let mut stance_at = |at: Option<f32>| {
+            let mut tol;
+            let mut offset_back = 0.0;
+            if let Some(t) = at {
+                tol = [SWING_IK_TOLERANCE; 4];
+                for &(li, grip, normal) in steps {
+                    grips[li] = swing_point(
+                        from[li],
+                        (grip, normal),
+                        t,
+                        env.cfg.swing_clearance_m,
+                        self.body_rot * Vec3::NEG_Y,
+                    );
+                    weights[li] = trunk_blend(env, self.limbs[li].grip.support, support, t);
+                    // The stepping limb is in the air: its pose is free.
+                    tol[li] = f32::INFINITY;
+                }
+                if pair {
+                    offset_back = env.cfg.offset_back_m * back_scale * hind_back_share(t);
+                }
+            } else {
+                tol = [HOLD_IK_TOLERANCE; 4];
+                for &(li, grip, _) in steps {
+                    grips[li] = grip;
+                    weights[li] = trunk_blend(env, support, support, 1.0);
+                    tol[li] = STANCE_IK_TOLERANCE;
+                }
+            }
+            let mut offset = body_offset(env, weights);
+            offset.hind_back_m = offset_back;
+            self.stance_check(env, grips, tol, offset)
+        };
+        let stances: [StanceCheck; STANCE_CHECKS] =
+            std::array::from_fn(|k| stance_at(SWING_CHECKS.get(k).copied()));
+        // A step between a branch and a trunk rolls the body fast: between
+        // the IK checks' arc points it could enter a support the points do
+        // not show, so the body is also checked at every 5 % of the arc.
+        let scene = env.scene();
+        let kind_change = steps.iter().any(|&(li, ..)| {
+            scene.support(self.limbs[li].grip.support).kind != scene.support(support).kind
+        });
+        if kind_change
+            && TRANSFER_BODY_CHECKS.iter().any(|&t| {
+                let st = stance_at(Some(t));
+                self.body_penetrates(env, st.pos, st.rot)
+            })
+        {
+            return false;
+        }
+        self.stances_pass(env, &stances)
+    }
+
+    /// The hind pair's step onto a branch (`transfer_to_branch`): the largest
+    /// share of the offset back (all, half, none) with which every stance of
+    /// the step holds, if any. The thesis' Offset Back is a visual offset of
+    /// the hindquarters by the spine rig; on this rigid torso it moves the
+    /// hind limbs' roots, and all of it can take the branch out of their reach.
+    pub(super) fn pair_back_scale(
+        &self,
+        env: &LocoView<'_>,
+        steps: &[(usize, Vec3, Vec3)],
+        support: SupportId,
+    ) -> Option<f32> {
+        let scales: &[f32] = if env.cfg.offset_back_m > 0.0 {
+            &[1.0, 0.5, 0.0]
+        } else {
+            &[0.0]
+        };
+        scales
+            .iter()
+            .copied()
+            .find(|&k| self.steps_reachable(env, steps, support, k))
+    }
+
+    /// [`Self::step_reachable`] for limb `li` stepping to `grip` while limb
+    /// `lj` lifts off `start_s` into the swing, toward its committed step
+    /// `to` ([`Self::next_lift`]): the stances at both swings' arc points
+    /// and landings and at that limb's lift-off, each limb holding its grip
+    /// until it lifts off and from when it lands.
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn lift_reachable(
+        &self,
+        env: &LocoView<'_>,
+        li: usize,
+        grip: Vec3,
+        normal: Vec3,
+        lj: usize,
+        to: Grip,
+        start_s: f32,
+    ) -> bool {
+        let dur_i = env.cfg.swing_duration(Limb::ALL[li]);
+        let dur_j = env.cfg.swing_duration(Limb::ALL[lj]);
+        let n = SWING_CHECKS.len();
+        let mut times = [0.0f32; MAX_STANCES];
+        for (k, &t) in SWING_CHECKS.iter().enumerate() {
+            times[k] = t * dur_i;
+            times[n + 1 + k] = start_s + t * dur_j;
+        }
+        times[n] = dur_i;
+        // The last moment it holds (the body is farthest from its grip).
+        times[2 * n + 1] = start_s;
+        times[MAX_STANCES - 1] = start_s + dur_j;
+        times.sort_by(f32::total_cmp);
+        let offset = body_offset(env, self.trunk_weights(env));
+        let down = self.body_rot * Vec3::NEG_Y;
+        let cur = self.limbs.map(|l| (l.grip.point, l.grip.normal));
+        let swings = [
+            (li, (grip, normal), 0.0, dur_i),
+            (lj, (to.point, to.normal), start_s, dur_j),
+        ];
+        let stances: [StanceCheck; MAX_STANCES] = std::array::from_fn(|k| {
+            let tau = times[k];
+            let mut grips = cur.map(|(p, _)| p);
+            let mut tol = [HOLD_IK_TOLERANCE; 4];
+            for &(l, (p, nrm), s0, dur) in &swings {
+                let progress = (tau - s0) / dur;
+                if progress >= 1.0 {
+                    grips[l] = p;
+                    // Checked as closely as a landing at its own landing.
+                    if k == MAX_STANCES - 1 || tau == s0 + dur {
+                        tol[l] = STANCE_IK_TOLERANCE;
+                    }
+                } else if progress > 0.0 {
+                    grips[l] =
+                        swing_point(cur[l], (p, nrm), progress, env.cfg.swing_clearance_m, down);
+                    tol[l] = f32::INFINITY;
+                }
+            }
+            self.stance_check(env, grips, tol, offset)
+        });
+        self.stances_pass(env, &stances)
+    }
+
+    /// The stance of IK targets `grips` (claws within `tol`) with the body
+    /// they imply.
+    fn stance_check(
+        &self,
+        env: &LocoView<'_>,
+        grips: [Vec3; 4],
+        tol: [f32; 4],
+        offset: BodyOffset,
+    ) -> StanceCheck {
+        let (pos, rot) = self.body_for_targets(env, &grips, offset, BodySide::Body);
+        StanceCheck {
+            grips,
+            tol,
+            pos,
+            rot,
+            offset,
+            roots: std::array::from_fn(|i| env.rig.root_ws(i, pos, rot)),
+        }
+    }
+
+    /// The checks every stance of a step passes: each planted limb's root
+    /// within its reach band of its grip, the body clear of the supports
+    /// near the grips, and every limb with a finite tolerance reaching its
+    /// target ([`Self::stances_hold`]). The last stance is the step's end.
+    fn stances_pass(&self, env: &LocoView<'_>, stances: &[StanceCheck]) -> bool {
+        let max = env.rig.reach * env.cfg.max_reach_fraction;
+        let min = env.rig.reach * env.cfg.min_reach_fraction;
+        let in_band = stances.iter().all(|st| {
+            (0..4).all(|i| {
+                let root = Vec3::from(st.roots[i].position);
+                let d = root.distance(st.grips[i]);
+                !(d > max || d < min)
+            })
+        });
+        // Walking a trunk, the drawn body faces it from a side that lags
+        // the grips' mean by a few frames: each stance's body is checked
+        // from where the body is now and from where it settles (the grips'
+        // mean), so the side drawn in between is covered too.
+        let trunk_walk = self.transfer.is_none() && self.fore_on_trunk(env);
+        let penetrates = |st: &StanceCheck| {
+            self.body_penetrates(env, st.pos, st.rot)
+                || (trunk_walk && {
+                    let (pos, rot) =
+                        self.body_for_targets(env, &st.grips, st.offset, BodySide::Grips);
+                    self.body_penetrates(env, pos, rot)
+                })
+        };
+        in_band && !stances.iter().any(penetrates) && self.stances_hold(env, stances)
+    }
+
+    /// The CCD part of [`Self::step_reachable`]: every limb with a finite
+    /// tolerance reaches its target in every stance ([`reach_check`] from the
+    /// limb's pose, the four limbs of a stance at once in SIMD lanes, two
+    /// stances per call: each lane is exactly that scalar check). The end
+    /// stance goes first: its stepping limb is the check that fails most
+    /// often (the search tries the farthest candidates first); it is solved
+    /// with the first arc point (nearly every call that gets this far checks
+    /// all of them).
+    fn stances_hold(&self, env: &LocoView<'_>, stances: &[StanceCheck]) -> bool {
+        let base = CcdParams {
+            max_iterations: CHECK_MAX_ITERATIONS,
+            ..*env.ccd
+        };
+        let params = check_params(&base);
+        // The end stance (the last), then the arc's points in order.
+        let n = stances.len();
+        let order: [usize; MAX_STANCES] = std::array::from_fn(|k| (k + n - 1) % n);
+        let order = &order[..n];
+        let holds = |st: &StanceCheck, poses: &mut [ChainPose], r: &[CcdResult]| {
+            (0..4).all(|i| {
+                // An infinite tolerance: the stepping limb is in the air.
+                st.tol[i] == f32::INFINITY
+                    || reach_check_polish(
+                        &env.rig.chains[i],
+                        st.roots[i],
+                        st.grips[i],
+                        &mut poses[i],
+                        st.tol[i],
+                        &base,
+                        r[i].error,
+                    )
+                    .0
+            })
+        };
+        order.chunks(2).all(|ks| match *ks {
+            [a, b] => {
+                let (sa, sb) = (&stances[a], &stances[b]);
+                let pose = self.limbs.map(|l| l.pose);
+                let mut poses = lanes8(pose, pose);
+                let r = slothsim_rig::solve8_prepared_tolerances(
+                    &env.rig.chains4,
+                    lanes8(sa.roots, sb.roots),
+                    lanes8(sa.grips, sb.grips),
+                    &mut poses,
+                    &params,
+                    lanes8(sa.tol, sb.tol),
+                );
+                let (pa, pb) = poses.split_at_mut(4);
+                holds(sa, pa, &r[..4]) && holds(sb, pb, &r[4..])
+            }
+            [k] => {
+                let st = &stances[k];
+                let mut poses = self.limbs.map(|l| l.pose);
+                let r = slothsim_rig::solve4_prepared_tolerances(
+                    &env.rig.chains4,
+                    st.roots,
+                    st.grips,
+                    &mut poses,
+                    &params,
+                    st.tol,
+                );
+                holds(st, &mut poses, &r)
+            }
+            _ => unreachable!("chunks of two"),
+        })
+    }
+}

@@ -1,0 +1,386 @@
+//! Where a limb searches (thesis §3.3: "the model stops, turns back or
+//! changes branch"; `Find Side Step`; SPEC "Step search" item 6 and
+//! "Trunks and transitions"): the range on its own support, neighbour
+//! supports, the goal's branch first, retreats, wander-mode route choices,
+//! side steps around a trunk and the travel direction on a new support.
+
+use glam::Vec3;
+use slothsim_rig::Limb;
+use slothsim_scene::{SupportId, SupportKind};
+
+use crate::path::project;
+
+use super::{Grip, LocoView, Search, Sloth, mix64};
+
+/// Wander mode: a branch → trunk change is taken walking at most this steeply
+/// down toward the trunk (sine of the slope).
+const WANDER_MAX_DESCENT_SIN: f32 = -0.05;
+
+/// Wander mode: trunks taken from a branch are at most this thick where the
+/// branch meets them (metres; thicker ones the limbs cannot climb: README).
+const WANDER_MAX_TRUNK_RADIUS: f32 = 0.2;
+
+/// Wander mode: a trunk is left for a branch rising at least this steeply
+/// from it (sine; 80° from the trunk's up axis: trunk → branch passes 60–80°).
+const WANDER_MIN_RISE_SIN: f32 = 0.17;
+
+/// Side steps around a trunk (SPEC `find_side_step`): each step places its
+/// grip around the side the body faces the trunk from, turned about the axis
+/// toward the goal's side by at most this much (radians) and ...
+const SIDE_STEP_MAX_TURN: f32 = 0.35;
+
+/// ... by at most this much of the trunk's surface (metres) ...
+const SIDE_STEP_MAX_ARC: f32 = 0.05;
+
+/// ... until the body faces the trunk from within this angle of that side.
+const SIDE_STEP_DONE: f32 = 0.05;
+
+/// A side step may lose this much height along the axis (metres).
+pub(super) const SIDE_STEP_AXIAL_SLACK: f32 = 0.02;
+
+/// A side step around a trunk (see [`Sloth::side_step`]).
+#[derive(Clone, Copy, Debug)]
+pub(super) struct SideStep {
+    /// Signed turn about `axis_up` of the side the step's grip is placed around (radians).
+    pub(super) turn: f32,
+    /// The trunk's axis, pointing up.
+    pub(super) axis_up: Vec3,
+    /// Unit direction from the axis to the body now.
+    pub(super) side_now: Vec3,
+    /// The goal's height along `axis_up` relative to the body's (metres).
+    axial_to_goal: f32,
+}
+
+/// The step search of a limb holding `g`, on its own support: from one
+/// search distance ahead back to the grip.
+pub(super) fn search_ahead(env: &LocoView<'_>, g: Grip) -> Search {
+    Search {
+        support: g.support,
+        sdir: g.sdir,
+        first_u: g.u + g.sdir * env.cfg.search_distance_m,
+        next_u: g.u + g.sdir * env.cfg.search_distance_m,
+        last_u: g.u,
+        neighbour: u16::MAX,
+        retreat: false,
+        goal_first: false,
+    }
+}
+
+impl Sloth {
+    /// The search of limb `li` on the support it holds: from the search
+    /// distance ahead of its grip back to the grip. Side-stepping around a
+    /// trunk, the range goes toward the goal's height and no farther, down
+    /// to a step at the grip's own height.
+    pub(super) fn own_search(&self, env: &LocoView<'_>, li: usize) -> Search {
+        let g = self.limbs[li].grip;
+        let mut search = search_ahead(env, g);
+        // Undoing a transfer (turned back with the trailing limbs on its
+        // target): no steps along the target; the limb goes back to the
+        // support the leading limbs hold (see `next_neighbour`).
+        if self.transfer.is_some_and(|t| {
+            t.to == g.support
+                && !self.leads(Limb::ALL[li])
+                && Limb::ALL
+                    .iter()
+                    .all(|&l| !self.leads(l) || self.limbs[l.index()].grip.support != t.to)
+        }) {
+            search.next_u = g.u - g.sdir;
+            search.first_u = search.next_u;
+            return search;
+        }
+        if let Some(ss) = self.side_step(env, g.support) {
+            let sdir = if ss.axial_to_goal >= 0.0 { 1.0 } else { -1.0 };
+            let ahead = ss.axial_to_goal.abs().min(env.cfg.search_distance_m);
+            search.sdir = sdir;
+            search.first_u = g.u + sdir * ahead;
+            search.next_u = search.first_u;
+            search.last_u = g.u - sdir * SIDE_STEP_AXIAL_SLACK;
+        }
+        search
+    }
+
+    /// The candidate range of limb `li` on neighbour support `sid`, if its
+    /// surface comes within reach of the limb's root.
+    pub(super) fn neighbour_search(
+        &self,
+        env: &LocoView<'_>,
+        li: usize,
+        sid: SupportId,
+        k: u16,
+    ) -> Option<Search> {
+        let s2 = env.scene().support(sid);
+        let cur = self.limbs[li].grip;
+        let root = self.limbs[li].root;
+        let entry = project(s2, (cur.point + root) * 0.5);
+        // transfer_to_branch's hind pair is judged by its reach check at the
+        // stance after the step (with the hindquarters' offset back): before
+        // the pair moves, the hips low on the trunk are seldom within reach
+        // of a branch that falls away from the junction (trunk_branch at
+        // 110°–130° stopped there).
+        if self.hind_pair(li, sid).is_none()
+            && entry.point.distance(root) - entry.radius > env.rig.reach
+        {
+            return None;
+        }
+        let sdir = self.choose_sdir(env, sid, entry.tangent);
+        // transfer_to_branch: the hind pair's trace is capped (thesis: 10 cm)
+        // so the feet take the branch close to the trunk, under the body.
+        let reach_u = if self.hind_pair(li, sid).is_some() {
+            env.cfg.hind_transfer_trace_cap_m
+        } else {
+            env.cfg.search_distance_m
+        };
+        Some(Search {
+            support: sid,
+            sdir,
+            first_u: entry.u + sdir * reach_u,
+            next_u: entry.u + sdir * reach_u,
+            last_u: entry.u - sdir * 0.15,
+            neighbour: k,
+            retreat: false,
+            goal_first: false,
+        })
+    }
+
+    /// A leading limb on a trunk whose goal is on a branch leaving it tries
+    /// that branch first (`transfer_to_branch`): a branch ends at its trunk,
+    /// so a limb on a branch reaches the trunk once the branch is exhausted,
+    /// but a trunk goes on past the branch, and climbing it would never end.
+    /// `None` when the branch is out of reach: the limb climbs the trunk.
+    pub(super) fn goal_branch_search(&mut self, env: &LocoView<'_>, li: usize) -> Option<Search> {
+        let cur = self.limbs[li].grip.support;
+        let gs = if self.wander {
+            self.wander_branch(env, li, cur)?
+        } else {
+            self.goal?.0
+        };
+        let scene = env.scene();
+        let neighbours = env.adjacency.neighbours(cur);
+        if !self.leads(Limb::ALL[li])
+            || scene.support(cur).kind != SupportKind::Trunk
+            || scene.support(gs).kind != SupportKind::Branch
+            || !neighbours.contains(&gs)
+        {
+            return None;
+        }
+        let transfer = self.transfer;
+        self.begin_transfer(env, li, cur, gs);
+        // Neighbours count as tried: once the branch is exhausted the limb
+        // searches the trunk, then retreats (see `queue_candidates`).
+        let tried = u16::try_from(neighbours.len()).unwrap_or(u16::MAX - 1);
+        let search = self.neighbour_search(env, li, gs, tried).map(|sr| Search {
+            goal_first: true,
+            ..sr
+        });
+        if search.is_none() {
+            self.transfer = transfer;
+        }
+        search
+    }
+
+    /// Wander mode: a branch to leave trunk `trunk` for, tried before the
+    /// trunk by a fore limb climbing past it (head first, no transfer under
+    /// way): a neighbouring branch rising from the trunk (its first metres at
+    /// least [`WANDER_MIN_RISE_SIN`] uphill: trunk → branch holds there), taken
+    /// or passed by this sloth's own choice.
+    fn wander_branch(&self, env: &LocoView<'_>, li: usize, trunk: SupportId) -> Option<SupportId> {
+        let scene = env.scene();
+        if self.dir <= 0.0
+            || self.transfer.is_some()
+            || scene.support(trunk).kind != SupportKind::Trunk
+        {
+            return None;
+        }
+        let grip = self.limbs[li].grip.point;
+        env.adjacency.neighbours(trunk).iter().copied().find(|&b| {
+            let s = scene.support(b);
+            if s.kind != SupportKind::Branch {
+                return false;
+            }
+            let a = project(s, grip);
+            // Away from the trunk: toward the branch end farther from it.
+            let away = if a.u < 0.5 * s.length() {
+                a.tangent
+            } else {
+                -a.tangent
+            };
+            let take =
+                mix64(self.seed ^ mix64(u64::from(b.0) ^ (u64::from(self.turns) << 32))) & 1 == 0;
+            take && away.y >= WANDER_MIN_RISE_SIN
+        })
+    }
+
+    /// Sets up the search on the next admissible neighbour support. False when none is left.
+    pub(super) fn next_neighbour(&mut self, env: &LocoView<'_>, li: usize) -> bool {
+        let limb = Limb::ALL[li];
+        let cur = self.limbs[li].grip;
+        let neighbours = env.adjacency.neighbours(cur.support);
+        let mut k = match self.limbs[li].search.neighbour {
+            u16::MAX => 0usize,
+            n => n as usize,
+        };
+        // The supports the leading limbs hold: they transfer first.
+        let lead = if self.dir > 0.0 {
+            [Limb::LF, Limb::RF]
+        } else {
+            [Limb::LH, Limb::RH]
+        };
+        let lead_supports = lead.map(|l| self.limbs[l.index()].grip.support);
+        let lead_on_cur = lead_supports.contains(&cur.support);
+        // Wander mode: neighbours in an order of this sloth's own (the same
+        // for all its limbs at this support, so they pick the same one).
+        let rotate = if self.wander && !neighbours.is_empty() {
+            (mix64(self.seed ^ mix64(cur.support.0 as u64 ^ ((self.turns as u64) << 32)))
+                % neighbours.len() as u64) as usize
+        } else {
+            0
+        };
+        while k < neighbours.len() {
+            let sid = neighbours[(k + rotate) % neighbours.len()];
+            k += 1;
+            let scene = env.scene();
+            if self.wander
+                && scene.support(sid).kind != scene.support(cur.support).kind
+                && !self.may_wander_across(env, cur.support, sid)
+            {
+                continue;
+            }
+            // Trailing limbs only follow onto a support a leading limb already
+            // holds, and leave a trunk only when no leading limb is on it.
+            if !self.leads(limb) && (!lead_supports.contains(&sid) || lead_on_cur) {
+                continue;
+            }
+            // A branch ↔ trunk change: the transfer (and its side) is set up
+            // first, as the search on the new support depends on it.
+            if scene.support(sid).kind != scene.support(cur.support).kind {
+                self.begin_transfer(env, li, cur.support, sid);
+            }
+            if let Some(search) = self.neighbour_search(env, li, sid, k as u16) {
+                self.limbs[li].search = search;
+                return true;
+            }
+        }
+        self.limbs[li].search.neighbour = k as u16;
+        false
+    }
+
+    /// Wander mode: whether this sloth may change between a branch and a
+    /// trunk, from support `from` onto `to`, now. A transfer under way may go
+    /// on or be undone (after a turn back). A new one only head first, so the
+    /// fore limbs transfer first and the body stays head up (SPEC
+    /// `transfer_to_branch`, `transfer_to_trunk`): off a trunk only climbing
+    /// (a descent turns back at the trunk's foot and leaves higher up); onto
+    /// a trunk only walking level or uphill toward it (coming down a rising
+    /// branch the fore limbs cannot take the trunk above the hind limbs), and
+    /// only a trunk thin enough to climb.
+    fn may_wander_across(&self, env: &LocoView<'_>, from: SupportId, to: SupportId) -> bool {
+        if self.transfer.is_some() {
+            return true;
+        }
+        if self.dir <= 0.0 {
+            return false;
+        }
+        let scene = env.scene();
+        scene.support(from).kind == SupportKind::Trunk
+            || (self.travel().y >= WANDER_MAX_DESCENT_SIN
+                && project(scene.support(to), self.body_pos).radius <= WANDER_MAX_TRUNK_RADIUS)
+    }
+
+    /// Once no forward step is left anywhere: search backward on the current
+    /// support (up to one max step behind the grip). A retreat is taken only
+    /// if it leaves another limb a forward step (see [`Self::leaves_a_step`]),
+    /// so it unlocks a stance in which every limb was stuck. False if this
+    /// limb has already retreated in this search.
+    pub(super) fn start_retreat(&mut self, env: &LocoView<'_>, li: usize) -> bool {
+        let g = self.limbs[li].grip;
+        if self.limbs[li].search.retreat {
+            return false;
+        }
+        self.limbs[li].search = Search {
+            support: g.support,
+            sdir: g.sdir,
+            first_u: g.u - g.sdir * env.cfg.min_step_m,
+            next_u: g.u - g.sdir * env.cfg.min_step_m,
+            last_u: g.u - g.sdir * env.cfg.max_step_m,
+            // Neighbours are exhausted.
+            neighbour: u16::try_from(env.adjacency.neighbours(g.support).len())
+                .unwrap_or(u16::MAX - 1),
+            retreat: true,
+            goal_first: false,
+        };
+        true
+    }
+
+    /// Wander mode, at a dead end or blocked: reverse the travel direction
+    /// (the same footfall order continues, tail first) and vary later route choices.
+    pub(super) fn turn_back(&mut self) {
+        self.dir = -self.dir;
+        for l in &mut self.limbs {
+            l.grip.sdir = -l.grip.sdir;
+        }
+        self.failed_searches = 0;
+        self.turns = self.turns.wrapping_add(1);
+        self.stalled_turns += 1;
+    }
+
+    /// Side steps around trunk `sid` (SPEC `find_side_step`): when the goal
+    /// is on this trunk with a side the body does not yet face it from, the
+    /// turn about the axis the next step makes (toward the goal's side, the
+    /// shorter way) and the goal's distance along the axis from the body.
+    pub(super) fn side_step(&self, env: &LocoView<'_>, sid: SupportId) -> Option<SideStep> {
+        let (gs, gp) = self.goal?;
+        let goal_side = self.goal_side?;
+        let s = env.scene().support(sid);
+        if gs != sid || s.kind != SupportKind::Trunk || self.transfer.is_some() {
+            return None;
+        }
+        let a = project(s, self.body_pos);
+        let axis_up = if a.tangent.y >= 0.0 {
+            a.tangent
+        } else {
+            -a.tangent
+        };
+        let off_axis = self.body_pos - a.point;
+        let side_now = (off_axis - axis_up * axis_up.dot(off_axis)).try_normalize()?;
+        let turn = axis_up
+            .dot(side_now.cross(goal_side))
+            .atan2(side_now.dot(goal_side));
+        if turn.abs() <= SIDE_STEP_DONE {
+            return None;
+        }
+        let max_turn = SIDE_STEP_MAX_TURN.min(SIDE_STEP_MAX_ARC / a.radius.max(1e-3));
+        Some(SideStep {
+            turn: turn.clamp(-max_turn, max_turn),
+            axis_up,
+            side_now,
+            axial_to_goal: (project(s, gp).u - a.u) * (axis_up.dot(a.tangent)),
+        })
+    }
+
+    /// Travel direction along a new support: toward the goal if it is on it,
+    /// else for a trunk up (+1 travel) or down per `dir`, else the direction
+    /// that continues the current travel.
+    fn choose_sdir(&self, env: &LocoView<'_>, sid: SupportId, tangent: Vec3) -> f32 {
+        let s = env.scene().support(sid);
+        // Onto a trunk only head up: the limbs climb it until all four are across.
+        if self
+            .transfer
+            .is_some_and(|t| t.to == sid && s.kind == SupportKind::Trunk)
+        {
+            return if tangent.y >= 0.0 { 1.0 } else { -1.0 };
+        }
+        if let Some((gs, gp)) = self.goal {
+            let g = project(s, gp);
+            let here = project(s, self.body_pos);
+            if gs == sid || g.point.distance(gp) < 1.0 {
+                return if g.u >= here.u { 1.0 } else { -1.0 };
+            }
+        }
+        let want = if s.kind == SupportKind::Trunk {
+            Vec3::Y * self.dir
+        } else {
+            self.travel()
+        };
+        if tangent.dot(want) >= 0.0 { 1.0 } else { -1.0 }
+    }
+}

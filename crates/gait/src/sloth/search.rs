@@ -1,0 +1,488 @@
+//! StepSearch (thesis §3.3 `FindNextStep`, fig. 12; SPEC "Step search"):
+//! each searching limb takes the first traced candidate that still passes
+//! its checks, else queues the next candidates (farthest first, 1 cm
+//! back-off); the lookahead keeps a step from leaving no limb a step after
+//! it; committed steps let the steady profile's swings overlap.
+
+use slothsim_rig::Limb;
+
+use super::body::{BodySide, body_offset};
+use super::candidate::CandidateAt;
+use super::route::search_ahead;
+use super::{Fallback, Grip, LimbPhase, LocoView, MAX_TRACES, Search, Sloth, Status, TraceBatch};
+
+/// Reach-checked step-search candidates per limb per frame.
+const MAX_REACH_CHECKS_PER_FRAME: u32 = 8;
+
+/// Coarse search stride, in back-offs (see [`Sloth::queue_candidates`]).
+const COARSE_STRIDE: u32 = 3;
+
+/// Candidates traced per searching limb per frame. One: the search stops at
+/// the first candidate that passes the reach checks (farthest first), and its
+/// trace almost always confirms it; when it does not, the search goes on
+/// from the next candidate in the next frame.
+const CANDIDATES_PER_LIMB: usize = 1;
+
+/// A traced grip this close to the candidate's predicted one (and with its
+/// normal within [`RECHECK_NORMAL_COS`]) is the grip the reach checks passed.
+const RECHECK_DISTANCE: f32 = 1e-4;
+
+/// See [`RECHECK_DISTANCE`].
+const RECHECK_NORMAL_COS: f32 = 0.9999;
+
+/// Wander mode: stop after this many turn-backs in a row without a step.
+const MAX_STALLED_TURNS: u8 = 2;
+
+/// Back-off of the lookahead's coarse candidate scan.
+const LOOKAHEAD_STRIDE: f32 = 0.02;
+
+/// A limb lifting off on the gait clock during another's swing is checked
+/// as holding its grip this long past its clock time (its own search may
+/// take a few frames) and as in the air from then on: the deadline of its
+/// committed step ([`Sloth::next_lift`]).
+const LIFT_MARGIN_S: f32 = 0.05;
+
+/// Stride of the search for a committed step ([`Sloth::fallback_step`]).
+const FALLBACK_STRIDE: f32 = 0.05;
+
+/// Reach checks the search for a committed step may make.
+const FALLBACK_MAX_CHECKS: u32 = 6;
+
+impl Sloth {
+    /// StepSearch: evaluate traced candidates (in order: farthest first); the
+    /// first valid one becomes the limb's new grip and its swing starts. Limbs
+    /// still searching queue their next candidates into `batch`.
+    pub fn step_search(&mut self, env: &LocoView<'_>, batch: &mut TraceBatch) {
+        let mut chosen = [false; 4];
+        for i in 0..batch.len {
+            let m = batch.meta[i];
+            let li = m.limb as usize;
+            if chosen[li] || self.limbs[li].phase != LimbPhase::Searching {
+                continue;
+            }
+            let Ok(Some(hit)) = batch.results[i] else {
+                continue;
+            };
+            if hit.support != m.support || hit.normal.dot(m.out) < 0.3 {
+                continue;
+            }
+            // The candidate passed the reach checks at its predicted grip; the
+            // hit is re-checked only if the surface is elsewhere.
+            let as_checked = hit.point.distance(m.point) <= RECHECK_DISTANCE
+                && hit.normal.dot(m.out) >= RECHECK_NORMAL_COS;
+            // The hind pair's partner may have started a swing of its own
+            // since this candidate was queued.
+            let pair = m
+                .pair
+                .map(|(pi, p, n)| (pi as usize, p, n))
+                .filter(|&(pi, ..)| {
+                    self.limbs[pi].phase != LimbPhase::Swinging
+                        && self.hind_pair(li, m.support) == Some(pi)
+                });
+            if m.pair.is_some() && pair.is_none() {
+                continue;
+            }
+            let mut back_scale = m.back_scale;
+            // A step checked with the next limb lifting off during its swing
+            // commits that limb's step: it must still be the next to lift.
+            let mut lift = m.lift.map(|(lj, to)| (lj as usize, to));
+            let lift_at = lift.and_then(|(lj, _)| {
+                self.next_lift(env, li)
+                    .filter(|&(k, _)| k == lj)
+                    .map(|(_, start)| start)
+            });
+            if !as_checked {
+                let reachable = match pair {
+                    Some((pi, p, n)) => {
+                        match self.pair_back_scale(
+                            env,
+                            &[(li, hit.point, hit.normal), (pi, p, n)],
+                            m.support,
+                        ) {
+                            Some(k) => {
+                                back_scale = k;
+                                true
+                            }
+                            None => false,
+                        }
+                    }
+                    None => {
+                        if self.step_reachable(env, li, hit.point, hit.normal, m.support) {
+                            lift = None;
+                            true
+                        } else {
+                            matches!((lift, lift_at), (Some((lj, to)), Some(start))
+                                if self.lift_reachable(env, li, hit.point, hit.normal, lj, to, start))
+                        }
+                    }
+                };
+                if !reachable {
+                    continue;
+                }
+            }
+            if lift.is_some() && lift_at.is_none() {
+                continue;
+            }
+            let grip = Grip {
+                point: hit.point,
+                normal: hit.normal,
+                support: m.support,
+                u: m.u,
+                sdir: m.sdir,
+            };
+            let pair_grip = pair.map(|(pi, point, normal)| {
+                (
+                    pi,
+                    Grip {
+                        point,
+                        normal,
+                        ..grip
+                    },
+                )
+            });
+            if !self.leaves_a_step(env, li, grip, pair_grip) {
+                continue;
+            }
+            for (lj, g) in std::iter::once((li, grip)).chain(pair_grip) {
+                chosen[lj] = true;
+                let l = &mut self.limbs[lj];
+                l.from = l.grip.point;
+                l.from_normal = l.grip.normal;
+                l.from_support = l.grip.support;
+                l.grip = g;
+                l.phase = LimbPhase::Swinging;
+                l.swing_t = 0.0;
+                // Its own search found a step: a committed one is void.
+                l.fallback = None;
+                if lj != li {
+                    // The partner's own turn is taken by this step.
+                    l.due = false;
+                }
+            }
+            if let (Some((lj, to)), Some(start)) = (lift, lift_at) {
+                self.limbs[lj].fallback = Some(Fallback {
+                    grip: to,
+                    by_s: self.time + start,
+                });
+            }
+            if pair.is_some() {
+                self.hind_back_scale = back_scale;
+            }
+            self.failed_searches = 0;
+            self.stalled_turns = 0;
+        }
+        batch.len = 0;
+        for li in 0..4 {
+            if self.limbs[li].phase == LimbPhase::Searching {
+                self.queue_candidates(env, li, batch);
+            }
+        }
+    }
+
+    /// Queues up to [`CANDIDATES_PER_LIMB`] traces for limb `li`, continuing
+    /// its search; moves on to neighbouring supports when the current one is
+    /// exhausted; gives up (limb stays planted) when nothing is left.
+    pub(super) fn queue_candidates(
+        &mut self,
+        env: &LocoView<'_>,
+        li: usize,
+        batch: &mut TraceBatch,
+    ) {
+        let scene = env.scene();
+        let mut queued = 0;
+        // Reach checks (CCD solves of hypothetical stances) this frame: a
+        // search that needs more continues next frame, so no frame pays for
+        // a whole exhaustive search (crowd p95).
+        let mut checks = 0u32;
+        loop {
+            let sr = self.limbs[li].search;
+            let s = scene.support(sr.support);
+            let len = s.length();
+            let mut u = sr.next_u;
+            // Back off toward the current grip in coarse strides; the fine
+            // (back-off) points above the first coarse candidate that passes
+            // are then tried farthest first, so the farthest valid grip is
+            // found at about a third of the checks.
+            let fine = env.cfg.backoff_m;
+            let coarse = fine * COARSE_STRIDE as f32;
+            let in_range =
+                |u: f32| (env.cfg.end_margin_m..=len - env.cfg.end_margin_m).contains(&u);
+            while queued < CANDIDATES_PER_LIMB
+                && checks < MAX_REACH_CHECKS_PER_FRAME
+                && (u - sr.last_u) * sr.sdir >= -1e-6
+            {
+                let cand_u = u;
+                u -= sr.sdir * coarse;
+                if !in_range(cand_u) {
+                    continue;
+                }
+                let mut check =
+                    |u: f32| self.candidate(env, &CandidateAt::in_search(li, &sr, u), &mut checks);
+                let Some(mut found) = check(cand_u) else {
+                    continue;
+                };
+                for j in (1..COARSE_STRIDE).rev() {
+                    let fu = cand_u + sr.sdir * fine * j as f32;
+                    if (fu - sr.first_u) * sr.sdir > 1e-6 || !in_range(fu) {
+                        continue;
+                    }
+                    if let Some(f) = check(fu) {
+                        found = f;
+                        break;
+                    }
+                }
+                if batch.push(found.0, found.1) {
+                    queued += 1;
+                } else {
+                    u += sr.sdir * coarse;
+                    break;
+                }
+            }
+            self.limbs[li].search.next_u = u;
+            if queued > 0 || batch.len == MAX_TRACES || checks >= MAX_REACH_CHECKS_PER_FRAME {
+                return;
+            }
+            // The goal's branch is exhausted: climb on along the trunk.
+            if sr.goal_first {
+                let neighbour = sr.neighbour;
+                self.limbs[li].search = Search {
+                    neighbour,
+                    ..search_ahead(env, self.limbs[li].grip)
+                };
+                continue;
+            }
+            // This support is exhausted: try the next neighbour, then a retreat.
+            // Nothing better than a committed step: take it.
+            if self.limbs[li].fallback.is_some() {
+                self.start_fallback_swing(li);
+                return;
+            }
+            if !self.next_neighbour(env, li) && !self.start_retreat(env, li) {
+                // Nothing anywhere: stay planted.
+                let l = &mut self.limbs[li];
+                l.phase = LimbPhase::Planted;
+                l.due = false;
+                self.failed_searches = self.failed_searches.saturating_add(1);
+                if self.failed_searches >= env.cfg.stop_after_failed_searches
+                    && self.status == Status::Moving
+                {
+                    // Wander mode: turn back, unless turning back already
+                    // failed to bring a step (tail-first walking is mostly out
+                    // of the limbs' reach: see README); then stop here.
+                    if self.wander && self.stalled_turns < MAX_STALLED_TURNS {
+                        self.turn_back();
+                    } else {
+                        self.status = Status::NoGrip;
+                        if self.wander {
+                            self.resume_at = Some(self.time + env.cfg.wander_retry_s);
+                        }
+                    }
+                }
+                return;
+            }
+        }
+    }
+
+    /// This sloth once the given limbs hold the given grips: the body at
+    /// those grips (formulas 6, 7) and the chain roots it implies.
+    fn after_steps(
+        &self,
+        env: &LocoView<'_>,
+        steps: impl IntoIterator<Item = (usize, Grip)>,
+    ) -> Sloth {
+        let mut next = *self;
+        for (lj, g) in steps {
+            next.limbs[lj].grip = g;
+            next.limbs[lj].target = g.point;
+        }
+        let grips = next.limbs.map(|l| l.grip.point);
+        let offset = body_offset(env, next.trunk_weights(env));
+        (next.body_pos, next.body_rot) = next.body_for_targets(env, &grips, offset, BodySide::Body);
+        for lj in 0..4 {
+            let root = env.rig.root_ws(lj, next.body_pos, next.body_rot);
+            next.limbs[lj].root = root.position.into();
+        }
+        next
+    }
+
+    /// Lookahead: after limb `li` steps to `grip`, at least one other limb
+    /// (tried in footfall order from the next) still has a step (cheap checks
+    /// and reach, without traces). Keeps the greedy farthest-first search
+    /// out of stances from which no limb can move.
+    fn leaves_a_step(
+        &self,
+        env: &LocoView<'_>,
+        li: usize,
+        grip: Grip,
+        pair: Option<(usize, Grip)>,
+    ) -> bool {
+        let next = self.after_steps(env, std::iter::once((li, grip)).chain(pair));
+        let offsets = env.cfg.phase_offsets();
+        let mut order = [0usize, 1, 2, 3];
+        order.sort_by(|&a, &b| {
+            let da = (offsets[a] - offsets[li]).rem_euclid(1.0);
+            let db = (offsets[b] - offsets[li]).rem_euclid(1.0);
+            da.total_cmp(&db)
+        });
+        order
+            .into_iter()
+            .filter(|&lj| lj != li && pair.is_none_or(|(pi, _)| lj != pi))
+            .any(|lj| next.has_step(env, lj))
+    }
+
+    /// Whether limb `li` has any candidate passing the cheap checks and the
+    /// reach check on its support or an admissible neighbour (no traces).
+    fn has_step(&self, env: &LocoView<'_>, li: usize) -> bool {
+        let limb = Limb::ALL[li];
+        let g = self.limbs[li].grip;
+        let scan = |sr: &Search| {
+            let len = env.scene().support(sr.support).length();
+            let mut u = sr.next_u;
+            while (u - sr.last_u) * sr.sdir >= -1e-6 {
+                if (env.cfg.end_margin_m..=len - env.cfg.end_margin_m).contains(&u)
+                    && self
+                        .candidate(env, &CandidateAt::probe(li, sr, u), &mut 0)
+                        .is_some()
+                {
+                    return true;
+                }
+                u -= sr.sdir * LOOKAHEAD_STRIDE;
+            }
+            false
+        };
+        if scan(&self.own_search(env, li)) {
+            return true;
+        }
+        let fore_supports = [
+            self.limbs[Limb::LF.index()].grip.support,
+            self.limbs[Limb::RF.index()].grip.support,
+        ];
+        let fore_on_cur = fore_supports.contains(&g.support);
+        env.adjacency.neighbours(g.support).iter().any(|&sid| {
+            (limb.is_fore() || (fore_supports.contains(&sid) && !fore_on_cur))
+                && self
+                    .neighbour_search(env, li, sid, 0)
+                    .is_some_and(|sr| scan(&sr))
+        })
+    }
+
+    /// The limb that lifts off next on the gait clock, if it does so while
+    /// limb `li`, about to step, is still in the air, and when (seconds from
+    /// now, [`LIFT_MARGIN_S`] included). The steady profile's swings
+    /// overlap: a limb lifting off during a step's swing need not hold its
+    /// grip to the step's landing, provided it surely lifts off — the step
+    /// commits that limb's next step ([`Self::fallback_step`],
+    /// [`LimbState::fallback`]). Only for plain steps (no transfer), with
+    /// that limb planted and no step of its own committed, and every other
+    /// limb planted or landing before it lifts off, none due: no other limb
+    /// can lift off first.
+    fn next_lift(&self, env: &LocoView<'_>, li: usize) -> Option<(usize, f32)> {
+        if self.transfer.is_some() {
+            return None;
+        }
+        let offsets = env.cfg.phase_offsets();
+        let cycle = env.cfg.cycle_duration();
+        let (lj, wait) = (0..4)
+            .filter(|&j| j != li)
+            .map(|j| (j, (offsets[j] - self.clock).rem_euclid(1.0) * cycle))
+            .min_by(|a, b| a.1.total_cmp(&b.1))?;
+        let start = wait + LIFT_MARGIN_S;
+        let a = &self.limbs[lj];
+        if start >= env.cfg.swing_duration(Limb::ALL[li])
+            || a.phase != LimbPhase::Planted
+            || a.due
+            || a.fallback.is_some()
+        {
+            return None;
+        }
+        let others_clear = (0..4).filter(|&k| k != li && k != lj).all(|k| {
+            let l = &self.limbs[k];
+            !l.due
+                && l.fallback.is_none()
+                && match l.phase {
+                    LimbPhase::Planted => true,
+                    LimbPhase::Searching => false,
+                    LimbPhase::Swinging => {
+                        (1.0 - l.swing_t) * env.cfg.swing_duration(Limb::ALL[k]) < wait
+                    }
+                }
+        });
+        others_clear.then_some((lj, start))
+    }
+
+    /// A step for limb `lj` to commit to once limb `li` holds `grip` (see
+    /// [`Self::next_lift`]): the farthest of a few candidates on its own
+    /// support, every [`FALLBACK_STRIDE`], that passes all of a step's checks
+    /// with the other limbs holding. Not traced: the grip is the support
+    /// model's surface point (as the hind pair's partner's).
+    fn fallback_step(
+        &self,
+        env: &LocoView<'_>,
+        li: usize,
+        grip: Grip,
+        lj: usize,
+        checks: &mut u32,
+    ) -> Option<Grip> {
+        let next = self.after_steps(env, [(li, grip)]);
+        let sr = next.own_search(env, lj);
+        if sr.support != self.limbs[lj].grip.support || sr.retreat {
+            return None;
+        }
+        let len = env.scene().support(sr.support).length();
+        let mut own_checks = 0;
+        let mut u = sr.next_u;
+        while (u - sr.last_u) * sr.sdir >= -1e-6 && own_checks < FALLBACK_MAX_CHECKS {
+            if (env.cfg.end_margin_m..=len - env.cfg.end_margin_m).contains(&u)
+                && let Some((_, c)) =
+                    next.candidate(env, &CandidateAt::probe(lj, &sr, u), &mut own_checks)
+            {
+                *checks += own_checks;
+                return Some(Grip {
+                    point: c.point,
+                    normal: c.out,
+                    support: sr.support,
+                    u,
+                    sdir: sr.sdir,
+                });
+            }
+            u -= sr.sdir * FALLBACK_STRIDE;
+        }
+        *checks += own_checks;
+        None
+    }
+
+    /// A plain step of limb `li` to `grip` that holds only with the limb
+    /// lifting off next in the air before it lands ([`Self::next_lift`]):
+    /// that limb and its committed step, if one passes with it.
+    pub(super) fn planned_lift(
+        &self,
+        env: &LocoView<'_>,
+        li: usize,
+        grip: Grip,
+        checks: &mut u32,
+    ) -> Option<(u8, Grip)> {
+        let (lj, start) = self.next_lift(env, li)?;
+        let to = self.fallback_step(env, li, grip, lj, checks)?;
+        *checks += 1;
+        self.lift_reachable(env, li, grip.point, grip.normal, lj, to, start)
+            .then_some((lj as u8, to))
+    }
+
+    /// Starts limb `li`'s swing to its committed step, if it has one (see
+    /// [`LimbState::fallback`]).
+    pub(super) fn start_fallback_swing(&mut self, li: usize) {
+        let Some(fb) = self.limbs[li].fallback.take() else {
+            return;
+        };
+        let l = &mut self.limbs[li];
+        l.from = l.grip.point;
+        l.from_normal = l.grip.normal;
+        l.from_support = l.grip.support;
+        l.grip = fb.grip;
+        l.phase = LimbPhase::Swinging;
+        l.swing_t = 0.0;
+        l.due = false;
+        self.failed_searches = 0;
+        self.stalled_turns = 0;
+    }
+}

@@ -1,0 +1,447 @@
+//! CcdSolve (thesis §3.1–3.3, CCD IK per limb; SPEC "Limb IK"): each limb's
+//! chain solved toward its target (four limbs in SIMD lanes, two sloths per
+//! solve where they pair), the body pulled back toward planted claws left
+//! short so grips do not slide, and the memo keys that skip a solve (or a
+//! BodyAverage) that would change nothing.
+
+use glam::Vec3;
+use slothsim_rig::{CcdParams, CcdResult, ChainPose, RootTransform};
+
+use super::checks::STANCE_IK_TOLERANCE;
+use super::{LimbPhase, LocoView, Sloth};
+
+/// A limb settled short of its target stays so while the target moves less
+/// than this (metres) in the limb's root frame.
+const SETTLED_MOVE: f32 = 1e-5;
+
+/// A planted limb's cold restart (see [`Sloth::solve_limbs`]) that did not
+/// beat the warm solve by [`COLD_RETRY_GAIN`] is not tried again until the
+/// target has moved this far (metres, root frame) from where it failed. At the
+/// edge of the reach both end in the same pose (within 0.1 µm in a 1,000-sloth
+/// crowd, after 70–80 sweeps): retried every frame, the restarts cost a tenth
+/// of the tick.
+const COLD_RETRY_MOVE: f32 = 0.02;
+
+/// See [`COLD_RETRY_MOVE`] (metres).
+const COLD_RETRY_GAIN: f32 = 5e-4;
+
+/// Words of a [`SolveKey`]: the body (position, rotation), then per limb its
+/// target, pose, settled target and cold-miss target (each with a flag),
+/// phase, root and effector.
+const SOLVE_KEY_LEN: usize = 7 + 4 * (3 + 16 + 4 + 4 + 1 + 3 + 3);
+
+/// The bits of the fields [`Sloth::solve_limbs`] reads or writes.
+type SolveKey = [u32; SOLVE_KEY_LEN];
+
+/// What [`Sloth::solve_limbs_memo`] keeps of the sloth's last CcdSolve.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct SolveMemo {
+    /// The state a solve left unchanged and its sweep count; `None` after a
+    /// solve that changed something.
+    fixed: Option<(SolveKey, u32)>,
+}
+
+impl SolveMemo {
+    /// The sweep count of the unchanged solve `key` matches, if it does.
+    pub(super) fn hit(&self, key: &Option<SolveKey>) -> Option<u32> {
+        match (&self.fixed, key) {
+            (Some((fixed, iterations)), Some(key)) => (fixed == key).then_some(*iterations),
+            _ => None,
+        }
+    }
+
+    /// After a solve from `key`: kept where it left the sloth unchanged.
+    fn keep(&mut self, sloth: &Sloth, key: Option<SolveKey>, iterations: u32) {
+        self.fixed = key
+            .filter(|key| sloth.solve_key().as_ref() == Some(key))
+            .map(|key| (key, iterations));
+    }
+}
+
+/// What [`Sloth::solve_limbs`] computes before its IK: each limb's chain root,
+/// target (world and root space) and whether it stays settled.
+struct SolvePrep {
+    roots: [RootTransform; 4],
+    targets: [Vec3; 4],
+    targets_ls: [Vec3; 4],
+    settled: [bool; 4],
+}
+
+impl SolvePrep {
+    /// Nothing to solve: every limb keeps its settled pose.
+    fn all_settled(&self) -> bool {
+        self.settled.iter().all(|&s| s)
+    }
+}
+
+impl AsMut<Sloth> for Sloth {
+    fn as_mut(&mut self) -> &mut Sloth {
+        self
+    }
+}
+
+impl AsMut<SolveMemo> for SolveMemo {
+    fn as_mut(&mut self) -> &mut SolveMemo {
+        self
+    }
+}
+
+/// A memo key being written: `N` words of bits, filled in order.
+pub(super) struct KeyBits<const N: usize> {
+    k: [u32; N],
+    at: usize,
+}
+
+impl<const N: usize> KeyBits<N> {
+    pub(super) fn new() -> Self {
+        KeyBits { k: [0; N], at: 0 }
+    }
+
+    pub(super) fn u32s(&mut self, v: &[u32]) {
+        self.k[self.at..self.at + v.len()].copy_from_slice(v);
+        self.at += v.len();
+    }
+
+    pub(super) fn f32s(&mut self, v: &[f32]) {
+        for (d, x) in self.k[self.at..self.at + v.len()].iter_mut().zip(v) {
+            *d = x.to_bits();
+        }
+        self.at += v.len();
+    }
+
+    /// The key (every word written).
+    pub(super) fn done(self) -> [u32; N] {
+        debug_assert_eq!(self.at, N);
+        self.k
+    }
+}
+
+/// Eight SIMD lanes' values: `a`'s in lanes 0..4, `b`'s in 4..8.
+pub(super) fn lanes8<T: Copy>(a: [T; 4], b: [T; 4]) -> [T; 8] {
+    std::array::from_fn(|i| if i < 4 { a[i] } else { b[i - 4] })
+}
+
+/// Lanes `k..k + 4` of eight.
+fn lanes4<T: Copy>(v: &[T; 8], k: usize) -> [T; 4] {
+    std::array::from_fn(|i| v[k + i])
+}
+
+impl Sloth {
+    /// CcdSolve: each limb from its root toward its target.
+    ///
+    /// Grips must not slide (SPEC): where the averaged body leaves a planted
+    /// claw short of its grip (the step checks sample a swing at a few arc
+    /// points only), the body is moved by the planted limbs' mean residual
+    /// and the limbs solved again; kept only if that brings the claws closer.
+    pub fn solve_limbs(&mut self, env: &LocoView<'_>) -> u32 {
+        let iterations = self.solve_limbs_with(env, env.ccd);
+        self.pull_to_grips(env, iterations)
+    }
+
+    /// [`Sloth::solve_limbs`] of two sloths at once: their limbs share the
+    /// SIMD lanes of one solve where both have limbs to solve (about half the
+    /// work of two calls on CPUs with AVX2). Each sloth ends exactly as its own
+    /// `solve_limbs` would leave it, bit for bit.
+    pub fn solve_limbs_pair(a: &mut Sloth, b: &mut Sloth, env: &LocoView<'_>) -> [u32; 2] {
+        let params = env.ccd;
+        let (pa, pb) = (a.solve_prepare(env), b.solve_prepare(env));
+        let (sa, sb) = match (pa.all_settled(), pb.all_settled()) {
+            (false, false) => {
+                let mut poses = lanes8(a.limbs.map(|l| l.pose), b.limbs.map(|l| l.pose));
+                let r = slothsim_rig::solve8_prepared_tolerances(
+                    &env.rig.chains4,
+                    lanes8(pa.roots, pb.roots),
+                    lanes8(pa.targets, pb.targets),
+                    &mut poses,
+                    params,
+                    [params.tolerance; 8],
+                );
+                let half = |k: usize| (lanes4(&poses, k), lanes4(&r, k));
+                (Some(half(0)), Some(half(4)))
+            }
+            (false, true) => (Some(a.solve_lanes(env, &pa, params)), None),
+            (true, false) => (None, Some(b.solve_lanes(env, &pb, params))),
+            (true, true) => (None, None),
+        };
+        let ia = a.solve_finish_limbs(env, params, &pa, sa);
+        let ib = b.solve_finish_limbs(env, params, &pb, sb);
+        let poses = lanes8(a.limbs.map(|l| l.pose), b.limbs.map(|l| l.pose));
+        let fk = env
+            .rig
+            .chains4
+            .fk_effectors8(&lanes8(pa.roots, pb.roots), &poses);
+        a.set_effectors(lanes4(&fk, 0));
+        b.set_effectors(lanes4(&fk, 4));
+        [a.pull_to_grips(env, ia), b.pull_to_grips(env, ib)]
+    }
+
+    /// The second half of [`Sloth::solve_limbs`] after a first solve of
+    /// `iterations` sweeps: the body pulled toward planted claws left short.
+    fn pull_to_grips(&mut self, env: &LocoView<'_>, mut iterations: u32) -> u32 {
+        let (residual, err) = self.planted_residual();
+        if err > STANCE_IK_TOLERANCE {
+            let saved = (self.body_pos, self.limbs);
+            self.body_pos += residual;
+            iterations += self.solve_limbs_with(env, env.ccd);
+            if self.planted_residual().1 >= err {
+                (self.body_pos, self.limbs) = saved;
+            }
+        }
+        iterations
+    }
+
+    /// [`Sloth::solve_limbs`], skipped where it would change nothing. The solve
+    /// is a deterministic function of the fields it reads (body, targets, limb
+    /// phases, poses, settled targets) and of `env`; when all of those and the
+    /// fields it writes (poses, settled targets, roots, effectors, body) hold
+    /// exactly the bits that a call through `memo` left unchanged, this call
+    /// would leave them unchanged again: it returns that call's sweep count.
+    /// A resting sloth's solves are such (about a third of the sloth-frames of
+    /// a 10,000-sloth crowd). `memo` belongs to this sloth and to `env` (start it
+    /// with [`SolveMemo::default`]).
+    pub fn solve_limbs_memo(&mut self, env: &LocoView<'_>, memo: &mut SolveMemo) -> u32 {
+        let key = self.solve_key();
+        match memo.hit(&key) {
+            Some(iterations) => iterations,
+            None => self.solve_limbs_kept(env, memo, key),
+        }
+    }
+
+    /// [`Sloth::solve_limbs`] from the state `key`, remembered in `memo`.
+    fn solve_limbs_kept(
+        &mut self,
+        env: &LocoView<'_>,
+        memo: &mut SolveMemo,
+        key: Option<SolveKey>,
+    ) -> u32 {
+        let iterations = self.solve_limbs(env);
+        memo.keep(self, key, iterations);
+        iterations
+    }
+
+    /// [`Sloth::solve_limbs_memo`] of every sloth of a batch (`memos[i]` is
+    /// `sloths[i]`'s), the solves that are not skipped paired two by two as in
+    /// [`Sloth::solve_limbs_pair`] (in batch order, so each sloth ends exactly
+    /// as its own solve would leave it). Returns the sweeps of all.
+    pub fn solve_limbs_batch<S: AsMut<Sloth>, M: AsMut<SolveMemo>>(
+        sloths: &mut [S],
+        memos: &mut [M],
+        env: &LocoView<'_>,
+    ) -> u64 {
+        assert_eq!(sloths.len(), memos.len(), "one memo per sloth");
+        let mut sweeps = 0u64;
+        // A sloth to solve, waiting for a partner, and its state's key.
+        let mut pending: Option<(usize, Option<SolveKey>)> = None;
+        for i in 0..sloths.len() {
+            let key = sloths[i].as_mut().solve_key();
+            if let Some(n) = memos[i].as_mut().hit(&key) {
+                sweeps += u64::from(n);
+                continue;
+            }
+            let Some((j, key_j)) = pending.take() else {
+                pending = Some((i, key));
+                continue;
+            };
+            let (s_lo, s_hi) = sloths.split_at_mut(i);
+            let (m_lo, m_hi) = memos.split_at_mut(i);
+            let (a, b) = (s_lo[j].as_mut(), s_hi[0].as_mut());
+            let [na, nb] = Sloth::solve_limbs_pair(a, b, env);
+            m_lo[j].as_mut().keep(a, key_j, na);
+            m_hi[0].as_mut().keep(b, key, nb);
+            sweeps += u64::from(na) + u64::from(nb);
+        }
+        if let Some((j, key_j)) = pending {
+            let n = sloths[j]
+                .as_mut()
+                .solve_limbs_kept(env, memos[j].as_mut(), key_j);
+            sweeps += u64::from(n);
+        }
+        sweeps
+    }
+
+    /// The bits of every field [`Sloth::solve_limbs`] reads or writes; `None`
+    /// while a limb swings (its target moves every frame: never skipped).
+    fn solve_key(&self) -> Option<SolveKey> {
+        if self.any_swinging() {
+            return None;
+        }
+        let mut k = KeyBits::<SOLVE_KEY_LEN>::new();
+        k.f32s(&self.body_pos.to_array());
+        k.f32s(&self.body_rot.to_array());
+        for l in &self.limbs {
+            k.f32s(&l.target.to_array());
+            for q in l.pose.0 {
+                k.f32s(&q.to_array());
+            }
+            for v in [l.settled_ls, l.cold_miss_ls] {
+                match v {
+                    Some(t) => k.f32s(&[1.0, t.x, t.y, t.z]),
+                    None => k.f32s(&[0.0; 4]),
+                }
+            }
+            k.f32s(&[l.phase as u32 as f32]);
+            k.f32s(&l.root.to_array());
+            k.f32s(&l.effector.to_array());
+        }
+        Some(k.done())
+    }
+
+    /// The mean of the planted limbs' claw → target vectors over those off
+    /// by more than [`STANCE_IK_TOLERANCE`], and the largest planted error.
+    fn planted_residual(&self) -> (Vec3, f32) {
+        let (mut sum, mut n, mut max) = (Vec3::ZERO, 0.0f32, 0.0f32);
+        for l in self.limbs.iter().filter(|l| l.phase != LimbPhase::Swinging) {
+            let r = l.target - l.effector;
+            let e = r.length();
+            max = max.max(e);
+            if e > STANCE_IK_TOLERANCE {
+                sum += r;
+                n += 1.0;
+            }
+        }
+        (if n > 0.0 { sum / n } else { Vec3::ZERO }, max)
+    }
+
+    pub(super) fn solve_limbs_with(&mut self, env: &LocoView<'_>, params: &CcdParams) -> u32 {
+        let prep = self.solve_prepare(env);
+        let solved = (!prep.all_settled()).then(|| self.solve_lanes(env, &prep, params));
+        self.solve_finish(env, params, &prep, solved)
+    }
+
+    /// The roots, targets and settled limbs of a solve (see [`SolvePrep`]).
+    fn solve_prepare(&self, env: &LocoView<'_>) -> SolvePrep {
+        let roots: [RootTransform; 4] =
+            std::array::from_fn(|li| env.rig.root_ws(li, self.body_pos, self.body_rot));
+        let targets = self.targets();
+        let targets_ls: [Vec3; 4] =
+            std::array::from_fn(|li| roots[li].inverse_transform_point(targets[li].into()).into());
+        // A limb that could not reach its target keeps its settled pose while
+        // the target stays put in its root frame (a resting sloth): solving
+        // again would only repeat the polish of the last frame.
+        let settled: [bool; 4] = std::array::from_fn(|li| {
+            self.limbs[li]
+                .settled_ls
+                .is_some_and(|t| t.distance_squared(targets_ls[li]) <= SETTLED_MOVE * SETTLED_MOVE)
+        });
+        SolvePrep {
+            roots,
+            targets,
+            targets_ls,
+            settled,
+        }
+    }
+
+    /// The four limbs in SIMD lanes, each lane exactly the single-limb solve:
+    /// the solved poses and results (the settled limbs' are not used).
+    fn solve_lanes(
+        &self,
+        env: &LocoView<'_>,
+        prep: &SolvePrep,
+        params: &CcdParams,
+    ) -> ([ChainPose; 4], [CcdResult; 4]) {
+        let mut poses = self.limbs.map(|l| l.pose);
+        let results = slothsim_rig::solve4_prepared(
+            &env.rig.chains4,
+            prep.roots,
+            prep.targets,
+            &mut poses,
+            params,
+        );
+        (poses, results)
+    }
+
+    /// The rest of a solve after its SIMD lanes (`solved`: `None` where every
+    /// limb is settled): [`Sloth::solve_finish_limbs`], then the effectors.
+    fn solve_finish(
+        &mut self,
+        env: &LocoView<'_>,
+        params: &CcdParams,
+        prep: &SolvePrep,
+        solved: Option<([ChainPose; 4], [CcdResult; 4])>,
+    ) -> u32 {
+        let iterations = self.solve_finish_limbs(env, params, prep, solved);
+        let poses = self.limbs.map(|l| l.pose);
+        self.set_effectors(env.rig.chains4.fk_effectors(&prep.roots, &poses));
+        iterations
+    }
+
+    /// Resumed and cold solves where the SIMD lanes fell short, the settled
+    /// targets and the roots (not the effectors). Returns the sweeps.
+    fn solve_finish_limbs(
+        &mut self,
+        env: &LocoView<'_>,
+        params: &CcdParams,
+        prep: &SolvePrep,
+        solved: Option<([ChainPose; 4], [CcdResult; 4])>,
+    ) -> u32 {
+        let SolvePrep {
+            roots,
+            targets_ls,
+            settled,
+            ..
+        } = *prep;
+        let mut iterations = 0;
+        for li in 0..4 {
+            let root = roots[li];
+            let l = &mut self.limbs[li];
+            if l.phase == LimbPhase::Swinging {
+                l.cold_miss_ls = None;
+            }
+            if let (false, Some((poses, results))) = (settled[li], &solved) {
+                l.pose = poses[li];
+                let mut r = results[li];
+                iterations += r.iterations;
+                // A warm solve may stop short when its smoothness guard caps a
+                // large joint move; resume from where it stopped (rare).
+                for _ in 0..3 {
+                    if r.error <= params.tolerance {
+                        break;
+                    }
+                    let prev = r.error;
+                    r = slothsim_rig::solve(
+                        &env.rig.chains[li],
+                        root,
+                        l.target,
+                        &mut l.pose,
+                        params,
+                    );
+                    iterations += r.iterations;
+                    if r.error > prev * 0.9 {
+                        break;
+                    }
+                }
+                // A planted claw the warm start left off its grip: the swing
+                // may have carried the limb into a fold (a local minimum at
+                // the joint limits) the step check, started elsewhere, did not
+                // use. A cold start gets another chance (rare: a limb stays
+                // settled until its target moves), but not again near where
+                // one failed.
+                let tried_here = l.cold_miss_ls.is_some_and(|t| {
+                    t.distance_squared(targets_ls[li]) <= COLD_RETRY_MOVE * COLD_RETRY_MOVE
+                });
+                if l.phase != LimbPhase::Swinging && r.error > STANCE_IK_TOLERANCE && !tried_here {
+                    let mut cold = ChainPose::NEUTRAL;
+                    let c =
+                        slothsim_rig::solve(&env.rig.chains[li], root, l.target, &mut cold, params);
+                    iterations += c.iterations;
+                    l.cold_miss_ls =
+                        (c.error > r.error - COLD_RETRY_GAIN).then_some(targets_ls[li]);
+                    if c.error < r.error {
+                        l.pose = cold;
+                        r = c;
+                    }
+                }
+                l.settled_ls = (r.error > params.tolerance).then_some(targets_ls[li]);
+            }
+            l.root = root.position.into();
+        }
+        iterations
+    }
+
+    /// The claws where the limbs' poses put them (world space).
+    fn set_effectors(&mut self, effectors: [Vec3; 4]) {
+        for (l, effector) in self.limbs.iter_mut().zip(effectors) {
+            l.effector = effector;
+        }
+    }
+}

@@ -1,0 +1,189 @@
+//! Branch ↔ trunk transfers (thesis §3.3 `Transfer to Trunk`, `Transfer to
+//! Branch`, Offset Back; SPEC "Trunks and transitions"): a transfer starts
+//! when a limb's search moves onto a support of the other kind and ends
+//! when all four limbs hold it; the hind pair leaves a trunk together.
+
+use glam::Vec3;
+use serde::{Deserialize, Serialize};
+use slothsim_rig::Limb;
+use slothsim_scene::{SupportId, SupportKind};
+
+use crate::path::project;
+
+use super::{LimbPhase, LocoView, Sloth, mix64};
+
+/// On a trunk reached from a branch the body faces the trunk from this angle
+/// around it from the branch (radians): beside the branch, head clear of it.
+const TRANSFER_SIDE_ANGLE: f32 = std::f32::consts::FRAC_PI_3;
+
+/// A change between a branch and a trunk in progress (SPEC `transfer_to_trunk`,
+/// `transfer_to_branch`). On the trunk the body faces it from `side`; while
+/// the limbs move across, the body rolls about its long axis between hanging
+/// below the branch and facing the trunk (see `Sloth::body_frame`).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Transfer {
+    /// The support the limbs move onto.
+    pub to: SupportId,
+    /// The trunk.
+    pub trunk: SupportId,
+    /// Unit direction from the trunk's axis toward the body on the trunk,
+    /// perpendicular to the axis; chosen once when the transfer starts.
+    pub side: Vec3,
+    /// Unit direction from the trunk's axis toward the branch, perpendicular to the axis.
+    pub away: Vec3,
+}
+
+impl Sloth {
+    /// Starts a branch ↔ trunk transfer from `from` onto `to` (unless one is
+    /// under way: a limb holds its target) and picks, once, the side of the
+    /// trunk the body faces it from. Onto a trunk: beside the branch (the head is eased
+    /// sideways away from it), on the side the body leans to, else on a side
+    /// of this sloth's own; off a trunk: the side the body is on.
+    pub(super) fn begin_transfer(
+        &mut self,
+        env: &LocoView<'_>,
+        li: usize,
+        from: SupportId,
+        to: SupportId,
+    ) {
+        if self
+            .transfer
+            .is_some_and(|t| self.limbs.iter().any(|l| l.grip.support == t.to))
+        {
+            return;
+        }
+        let scene = env.scene();
+        let onto_trunk = scene.support(to).kind == SupportKind::Trunk;
+        let (trunk, branch) = if onto_trunk { (to, from) } else { (from, to) };
+        let a = project(scene.support(trunk), self.body_pos);
+        let off_axis = self.body_pos - a.point;
+        let off_axis = off_axis - a.tangent * a.tangent.dot(off_axis);
+        let fallback = a.tangent.any_orthonormal_vector();
+        let bp = project(scene.support(branch), self.body_pos);
+        let away = bp.point - a.point;
+        let away = (away - a.tangent * a.tangent.dot(away)).normalize_or(fallback);
+        let side = if onto_trunk {
+            let b = bp.tangent;
+            let n = a.tangent.cross(b).normalize_or(fallback);
+            // Toward the side of the limb that starts the transfer: it takes
+            // the trunk next to the branch, its pair reaches around.
+            let model_side = if Limb::ALL[li].is_left() {
+                Vec3::X
+            } else {
+                Vec3::NEG_X
+            };
+            let nn = if n.dot(self.body_rot * model_side) >= 0.0 {
+                n
+            } else {
+                -n
+            };
+            let n2 = (nn - a.tangent * a.tangent.dot(nn)).normalize_or(fallback);
+            (away * TRANSFER_SIDE_ANGLE.cos() + n2 * TRANSFER_SIDE_ANGLE.sin())
+                .normalize_or(fallback)
+        } else {
+            off_axis.normalize_or(fallback)
+        };
+        self.transfer = Some(Transfer {
+            to,
+            trunk,
+            side,
+            away,
+        });
+    }
+
+    /// Ends the transfer once all four limbs hold its target support (or
+    /// when no limb holds it nor searches any more: it was not taken). On a
+    /// trunk the body faces up (head up); the travel turns toward the goal:
+    /// tail first when it is below.
+    pub(super) fn finish_transfer(&mut self, env: &LocoView<'_>) {
+        let Some(tr) = self.transfer else { return };
+        if self
+            .limbs
+            .iter()
+            .all(|l| l.phase == LimbPhase::Planted && l.grip.support != tr.to)
+        {
+            // Not taken. But where limbs hold the trunk and another support
+            // (a step went onto a neighbour of the branch), the body is still
+            // between a trunk and a branch: the transfer goes on onto that
+            // one (ending it here jumped the body 0.38 m in one frame).
+            let others = self.limbs.map(|l| l.grip.support);
+            let other = others.iter().copied().find(|&s| s != tr.trunk);
+            let one_other = other.filter(|&o| others.iter().all(|&s| s == tr.trunk || s == o));
+            self.transfer = match one_other {
+                Some(to) if others.contains(&tr.trunk) => Some(Transfer { to, ..tr }),
+                _ => None,
+            };
+            return;
+        }
+        if !self
+            .limbs
+            .iter()
+            .all(|l| l.phase == LimbPhase::Planted && l.grip.support == tr.to)
+        {
+            return;
+        }
+        self.transfer = None;
+        let s = env.scene().support(tr.to);
+        if s.kind != SupportKind::Trunk {
+            self.hang_trunk = Some(tr.trunk);
+            return;
+        }
+        let here = project(s, self.body_pos);
+        let up_u = if here.tangent.y >= 0.0 { 1.0 } else { -1.0 };
+        let dir = match self.goal {
+            Some((gs, gp)) if gs == tr.to => {
+                if (project(s, gp).u - here.u) * up_u >= 0.0 {
+                    1.0
+                } else {
+                    -1.0
+                }
+            }
+            // Wander mode: up or down, by this sloth's own choice.
+            _ if self.wander => {
+                if mix64(self.seed ^ mix64(u64::from(tr.to.0) ^ (u64::from(self.turns) << 32))) & 1
+                    == 0
+                {
+                    1.0
+                } else {
+                    -1.0
+                }
+            }
+            _ => 1.0,
+        };
+        self.dir = dir;
+        for l in &mut self.limbs {
+            l.grip.sdir = dir * up_u;
+        }
+    }
+
+    /// `transfer_to_branch`: once no fore limb is on the trunk, the hind
+    /// limbs leave it together (SPEC: the one exception to one limb at a
+    /// time). The partner of hind limb `li` stepping onto branch `sid`, if
+    /// this is that step.
+    pub(super) fn hind_pair(&self, li: usize, sid: SupportId) -> Option<usize> {
+        let tr = self.transfer?;
+        let limb = Limb::ALL[li];
+        if limb.is_fore() || self.dir < 0.0 || tr.to != sid || tr.trunk == sid {
+            return None;
+        }
+        let partner = limb.opposite().index();
+        let on_trunk = |i: usize| self.limbs[i].grip.support == tr.trunk;
+        let ready = on_trunk(li)
+            && on_trunk(partner)
+            && self.limbs[partner].phase != LimbPhase::Swinging
+            && !on_trunk(Limb::LF.index())
+            && !on_trunk(Limb::RF.index());
+        ready.then_some(partner)
+    }
+
+    /// Swing progress of `transfer_to_branch`'s hind pair while it travels
+    /// from the trunk onto the branch together (see [`Self::hind_pair`]).
+    pub(super) fn hind_pair_swing_t(&self) -> Option<f32> {
+        let tr = self.transfer?;
+        let (lh, rh) = (self.limbs[Limb::LH.index()], self.limbs[Limb::RH.index()]);
+        let pair = [lh, rh].iter().all(|l| {
+            l.phase == LimbPhase::Swinging && l.from_support == tr.trunk && l.grip.support == tr.to
+        });
+        (pair && tr.to != tr.trunk).then_some(lh.swing_t.min(rh.swing_t))
+    }
+}
