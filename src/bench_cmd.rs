@@ -277,7 +277,7 @@ fn build(args: &BenchArgs, plan: &Plan, rig: &Rig, n: u32) -> Result<(Crowd, u32
 /// rows, traces and CCD iterations over the timed frames.
 struct Measured {
     frame_ms: Vec<f64>,
-    stages: Vec<[f64; 5]>,
+    stages: Vec<[f64; slothsim_sim::STAGES]>,
     traces: u64,
     ccd_iterations: u64,
     /// State hash after `hash_at` frames, when asked.
@@ -531,7 +531,7 @@ pub fn run(args: BenchArgs) -> Result<bool> {
 fn print_run(r: &RunReport) {
     let s = &r.stages_ms;
     println!(
-        "{} sloths: frame ms p50 {:.2}, p95 {:.2}, max {:.2} ({:.2} µs/sloth); stage p50/p95: trace {:.2}/{:.2}, step_search {:.2}/{:.2}, body_average {:.2}/{:.2}, ccd_solve {:.2}/{:.2}, transitions {:.2}/{:.2}; {:.0} traces/frame, {:.2} CCD iterations/limb",
+        "{} sloths: frame ms p50 {:.2}, p95 {:.2}, max {:.2} ({:.2} µs/sloth); stage p50/p95: trace {:.2}/{:.2}, step_search {:.2}/{:.2}, body_average {:.2}/{:.2}, ccd_solve {:.2}/{:.2}, grip_load {:.2}/{:.2}, transitions {:.2}/{:.2}; {:.0} traces/frame, {:.2} CCD iterations/limb",
         r.sloths,
         r.frame_ms.p50,
         r.frame_ms.p95,
@@ -545,6 +545,8 @@ fn print_run(r: &RunReport) {
         s.body_average.p95,
         s.ccd_solve.p50,
         s.ccd_solve.p95,
+        s.grip_load.p50,
+        s.grip_load.p95,
         s.transitions.p50,
         s.transitions.p95,
         r.traces_per_frame,

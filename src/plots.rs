@@ -15,8 +15,8 @@ use slothsim::sim::snapshot::{CrowdRecorder, crowd_poses, crowd_traces};
 use slothsim::sim::{Crowd, ScenarioResult};
 use slothsim::to_plot;
 use slothsim_plot::{
-    FrameTimes, GaitDiagram, Pixmap, SideView, TopDown, contact_intervals, draw_frame_times,
-    draw_gait, draw_side, draw_topdown, save_png,
+    FrameTimes, GaitDiagram, LoadChart, Pixmap, SideView, TopDown, contact_intervals,
+    draw_frame_times, draw_gait, draw_loads, draw_side, draw_topdown, save_png,
 };
 
 use crate::cli_common::{load_checkpoint, prepare_out};
@@ -70,6 +70,27 @@ pub fn print_costs(costs: &[PlotCost], dir: &Path) {
     println!("plots in {}: {}", dir.display(), parts.join(", "));
 }
 
+/// The grip-load chart (`loads.png`) of one sloth's frames.
+fn load_chart(
+    title: String,
+    times: &[f32],
+    loads: &[slothsim::gait::LimbLoads],
+    release_bw: f32,
+) -> Pixmap {
+    let force_bw = loads
+        .iter()
+        .map(|l| {
+            l.force
+                .map(|f| if l.ok { f.length() / l.weight_n } else { 0.0 })
+        })
+        .collect();
+    let residual_bw = loads.iter().map(|l| l.residual_bw).collect();
+    let mut chart = LoadChart::new(times.to_vec(), force_bw, residual_bw);
+    chart.title = title;
+    chart.release_bw = release_bw;
+    draw_loads(&chart)
+}
+
 /// Gait diagram time axis: from 0 when the samples start at the beginning, else fitted.
 fn gait_duration(times: &[f32]) -> f32 {
     match (times.first(), times.last()) {
@@ -78,7 +99,7 @@ fn gait_duration(times: &[f32]) -> f32 {
     }
 }
 
-/// The plots of a crowd run: `topdown.png`, `gait.png`, `frame_times.png`.
+/// The plots of a crowd run: `topdown.png`, `gait.png`, `loads.png`, `frame_times.png`.
 pub fn run_plots(dir: &Path, crowd: &Crowd, rec: &CrowdRecorder) -> Result<Vec<PlotCost>> {
     let mut costs = Vec::new();
     let sloths = to_plot::sloth_poses(&crowd_poses(crowd));
@@ -102,6 +123,14 @@ pub fn run_plots(dir: &Path, crowd: &Crowd, rec: &CrowdRecorder) -> Result<Vec<P
         g.title = format!("gait of sloth {}", rec.focus());
         draw_gait(&g)
     })?;
+    render(dir, "loads.png", &mut costs, || {
+        load_chart(
+            format!("grip loads of sloth {}", rec.focus()),
+            &rec.gait_times,
+            &rec.loads,
+            crowd.spec().cfg.release_residual_bw,
+        )
+    })?;
     render(dir, "frame_times.png", &mut costs, || {
         let history = &crowd.timings().history;
         let mut ft = FrameTimes::new(history);
@@ -112,7 +141,7 @@ pub fn run_plots(dir: &Path, crowd: &Crowd, rec: &CrowdRecorder) -> Result<Vec<P
 }
 
 /// The plots of a scenario run: `topdown.png` (zoomed on the sloth's path),
-/// `side.png`, `gait.png`, `frame_times.png`.
+/// `side.png`, `gait.png`, `loads.png`, `frame_times.png`.
 pub fn scenario_plots(
     dir: &Path,
     scene: &Scene,
@@ -180,6 +209,16 @@ pub fn scenario_plots(
         let mut g = GaitDiagram::new(contact_intervals(&times, &planted), gait_duration(&times));
         g.title = format!("{label}: gait");
         draw_gait(&g)
+    })?;
+    render(dir, "loads.png", &mut costs, || {
+        let times: Vec<f32> = r.loads.iter().map(|l| l.0).collect();
+        let loads: Vec<_> = r.loads.iter().map(|l| l.1).collect();
+        load_chart(
+            format!("{label}: grip loads"),
+            &times,
+            &loads,
+            r.release_residual_bw,
+        )
     })?;
     render(dir, "frame_times.png", &mut costs, || {
         let mut ft = FrameTimes::new(&r.stage_ms);

@@ -90,7 +90,7 @@ fn same_seed_same_state_for_1_and_2_threads_and_repeats() {
     let mut lines = csv.lines();
     assert_eq!(
         lines.next(),
-        Some("frame,trace,step_search,body_average,ccd_solve,transitions,total")
+        Some("frame,trace,step_search,body_average,ccd_solve,grip_load,transitions,total")
     );
     assert_eq!(lines.count(), 240);
 }

@@ -118,6 +118,23 @@ pub struct LocomotionConfig {
     /// Wander mode: a sloth stopped for want of a grip tries again after this
     /// long (sloths that boxed it in may have moved on).
     pub wander_retry_s: f32,
+    /// Grip loads (issue 22, crate `slothsim-load`): body mass (SPEC: 6.5–10.6 kg).
+    pub mass_kg: f32,
+    /// Friction coefficient of pad and claw on a support.
+    pub grip_mu: f32,
+    /// Grip strength of one limb: the most it pulls toward the support's axis, in body weights.
+    pub grip_strength_bw: f32,
+    /// Push strength of one limb: the most it presses into a support, in body weights.
+    pub push_strength_bw: f32,
+    /// Weight of the squared residual wrench in the grip-load objective.
+    pub load_w_residual: f32,
+    /// Weight of the squared grip forces in the grip-load objective.
+    pub load_w_force: f32,
+    /// Release rule: a limb lifts only if the other grips carry the body with a residual
+    /// of at most this many body weights (else it waits, at most 1 s; at least two grips
+    /// stay anyway). Default 0.15: at 0.05 the steady pole strides leave SPEC Table 1
+    /// (docs/grip-loads.md).
+    pub release_residual_bw: f32,
 }
 
 impl Default for LocomotionConfig {
@@ -174,6 +191,13 @@ impl LocomotionConfig {
             hang_clearance_m: 0.1,
             stop_after_failed_searches: 8,
             wander_retry_s: 5.0,
+            mass_kg: 8.0,
+            grip_mu: 0.6,
+            grip_strength_bw: 1.0,
+            push_strength_bw: 1.0,
+            load_w_residual: 1.0e4,
+            load_w_force: 1.0,
+            release_residual_bw: 0.15,
         };
         match profile {
             Profile::Free => free,
@@ -351,6 +375,13 @@ impl LocomotionConfig {
             255.0,
         )?;
         check("wander_retry_s", self.wander_retry_s, 0.0, 600.0)?;
+        check("mass_kg", self.mass_kg, 0.1, 1000.0)?;
+        check("grip_mu", self.grip_mu, 1e-3, 10.0)?;
+        check("grip_strength_bw", self.grip_strength_bw, 1e-3, 100.0)?;
+        check("push_strength_bw", self.push_strength_bw, 1e-3, 100.0)?;
+        check("load_w_residual", self.load_w_residual, 1e-6, 1e9)?;
+        check("load_w_force", self.load_w_force, 1e-6, 1e9)?;
+        check("release_residual_bw", self.release_residual_bw, 1e-4, 100.0)?;
         Ok(())
     }
 }
@@ -380,6 +411,28 @@ mod tests {
         assert_eq!(c.swing_s, Some([0.84, 0.67]));
         let err = LocomotionConfig::from_toml("max_stepp = 0.5\n").unwrap_err();
         assert!(err.contains("max_stepp"), "{err}");
+    }
+
+    #[test]
+    fn grip_load_parameters_are_validated_by_name() {
+        type Spoil = fn(&mut LocomotionConfig);
+        let cases: [(&str, Spoil); 8] = [
+            ("mass_kg", |c| c.mass_kg = f32::NAN),
+            ("mass_kg", |c| c.mass_kg = 0.0),
+            ("grip_mu", |c| c.grip_mu = -0.1),
+            ("grip_strength_bw", |c| c.grip_strength_bw = 0.0),
+            ("push_strength_bw", |c| c.push_strength_bw = -1.0),
+            ("load_w_residual", |c| c.load_w_residual = f32::INFINITY),
+            ("load_w_force", |c| c.load_w_force = f32::NAN),
+            ("release_residual_bw", |c| c.release_residual_bw = 0.0),
+        ];
+        for (field, spoil) in cases {
+            let mut c = LocomotionConfig::default();
+            spoil(&mut c);
+            let err = c.validate(0.4).unwrap_err();
+            assert_eq!(err.field, field);
+            assert!(err.to_string().contains(field));
+        }
     }
 
     #[test]

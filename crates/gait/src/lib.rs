@@ -12,6 +12,7 @@ pub use observe::{LimbObservation, SlothObservation};
 pub mod config;
 pub mod crowd;
 pub mod env;
+pub mod load;
 pub mod path;
 pub mod rigdata;
 pub mod sloth;
@@ -19,6 +20,7 @@ pub mod sloth;
 pub use config::{ConfigError, LocomotionConfig, Profile, Sequence};
 pub use crowd::{CrowdGrid, HashedPoint};
 pub use env::{IK_TOLERANCE_M, LocoEnv, LocoView, crowd_points};
+pub use load::{LimbLoads, LoadTrack, load_params};
 pub use path::{Adjacency, AxisPoint, axis_at, project, surface_gap};
 pub use rigdata::RigData;
 pub use sloth::{

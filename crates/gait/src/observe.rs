@@ -59,6 +59,9 @@ pub struct SlothObservation {
     pub goal_held: bool,
     /// Some value of this sloth's state was NaN/inf this frame.
     pub has_nan: bool,
+    /// Residual wrench of the grip loads (issue 22) in body weights: what the holding
+    /// claws could not supply (0 before the first GripLoad stage).
+    pub residual_bw: f32,
 }
 
 impl SlothObservation {

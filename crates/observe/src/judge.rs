@@ -244,6 +244,7 @@ pub struct Judge {
     max_penetration_m: f32,
     head_below_hips_on_trunk_frames: u64,
     nan_count: u64,
+    max_residual_bw: f32,
 
     worst: [Option<At>; WORST_COUNT],
 
@@ -269,7 +270,8 @@ const W_CONTACT: usize = 4;
 const W_PENETRATION: usize = 5;
 const W_HEAD: usize = 6;
 const W_NAN: usize = 7;
-const WORST_COUNT: usize = 8;
+const W_RESIDUAL: usize = 8;
+const WORST_COUNT: usize = 9;
 
 impl Judge {
     /// A judge for a run that must reach its goal within `time_limit_s`
@@ -291,6 +293,7 @@ impl Judge {
             max_penetration_m: 0.0,
             head_below_hips_on_trunk_frames: 0,
             nan_count: 0,
+            max_residual_bw: 0.0,
             worst: [None; WORST_COUNT],
             prev: None,
         }
@@ -417,6 +420,10 @@ impl Judge {
             self.max_penetration_m = obs.penetration_m;
             self.worst[W_PENETRATION] = at;
         }
+        if obs.residual_bw > self.max_residual_bw {
+            self.max_residual_bw = obs.residual_bw;
+            self.worst[W_RESIDUAL] = at;
+        }
         if obs.on_trunk && obs.head_ws.y < obs.hips_ws.y {
             self.head_below_hips_on_trunk_frames += 1;
             if self.worst[W_HEAD].is_none() {
@@ -446,6 +453,7 @@ impl Judge {
             max_penetration_m: self.max_penetration_m,
             head_below_hips_on_trunk_frames: self.head_below_hips_on_trunk_frames,
             nan_count: self.nan_count,
+            max_residual_bw: self.max_residual_bw,
             worst: JudgeWorst {
                 max_grip_slip_m: w(W_GRIP_SLIP),
                 max_surface_gap_m: w(W_SURFACE_GAP),
@@ -455,6 +463,7 @@ impl Judge {
                 max_penetration_m: w(W_PENETRATION),
                 head_below_hips_on_trunk_frames: w(W_HEAD),
                 nan_count: w(W_NAN),
+                max_residual_bw: w(W_RESIDUAL),
             },
         }
     }
@@ -490,6 +499,9 @@ pub struct JudgeWorst {
     pub head_below_hips_on_trunk_frames: Option<MeasureAt>,
     /// First frame with a NaN.
     pub nan_count: Option<MeasureAt>,
+    /// Frame of `max_residual_bw`.
+    #[serde(default)]
+    pub max_residual_bw: Option<MeasureAt>,
 }
 
 /// What the judge measured over a run (or, merged, over a crowd).
@@ -535,6 +547,10 @@ pub struct JudgeReport {
     pub head_below_hips_on_trunk_frames: u64,
     /// Frames with `has_nan` or a non-finite value.
     pub nan_count: u64,
+    /// Largest residual wrench of the grip loads, body weights (issue 22): how far the
+    /// kinematic motion was from what the holding claws can carry. Reported, not judged.
+    #[serde(default)]
+    pub max_residual_bw: f32,
     /// Where the worst values happened.
     #[serde(default)]
     pub worst: JudgeWorst,
@@ -751,6 +767,12 @@ impl JudgeReport {
             &mut self.worst.max_penetration_m,
             other.max_penetration_m,
             &w.max_penetration_m,
+        );
+        worse_max(
+            &mut self.max_residual_bw,
+            &mut self.worst.max_residual_bw,
+            other.max_residual_bw,
+            &w.max_residual_bw,
         );
         self.joint_limit_violations += other.joint_limit_violations;
         if other.frames > 0

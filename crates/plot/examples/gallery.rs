@@ -190,7 +190,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
 
     // --- Frame times: 600 frames around 7 ms with a few spikes.
     let mut rng = common::Rng::new(3);
-    let frames: Vec<[f64; 5]> = (0..600)
+    let frames: Vec<[f64; 6]> = (0..600)
         .map(|i| {
             let spike = if i % 97 == 50 { 9.0 } else { 0.0 };
             [
@@ -198,6 +198,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 1.2 + rng.f32() as f64 * 0.5,
                 0.6 + rng.f32() as f64 * 0.2,
                 2.2 + rng.f32() as f64 * 0.9,
+                0.1 + rng.f32() as f64 * 0.05,
                 0.3 + rng.f32() as f64 * 0.1,
             ]
         })

@@ -58,12 +58,13 @@ pub const GAIT_HIND: Rgba = Rgba::rgb(200, 95, 0);
 pub const GAIT_ROW: Rgba = Rgba::rgb(238, 240, 245);
 
 /// Frame-time chart: one colour per stage (Trace, StepSearch, BodyAverage, CcdSolve,
-/// Transitions).
-pub const STAGES: [Rgba; 5] = [
+/// GripLoad, Transitions).
+pub const STAGES: [Rgba; 6] = [
     Rgba::rgb(31, 119, 180),
     Rgba::rgb(255, 127, 14),
     Rgba::rgb(44, 160, 44),
     Rgba::rgb(214, 39, 40),
+    Rgba::rgb(140, 86, 75),
     Rgba::rgb(148, 103, 189),
 ];
 /// Frame-time chart: the budget band.

@@ -14,12 +14,16 @@ const FOOTER: f32 = 70.0;
 const LEFT: f32 = 70.0;
 const RIGHT: f32 = 150.0;
 
-/// The tick's five stages, in schedule order (the default stage names).
-pub const DEFAULT_STAGES: [&str; 5] = [
+/// Number of stages of the tick (columns of a frame's times).
+pub const STAGE_COUNT: usize = 6;
+
+/// The tick's six stages, in schedule order (the default stage names).
+pub const DEFAULT_STAGES: [&str; STAGE_COUNT] = [
     "Trace",
     "StepSearch",
     "BodyAverage",
     "CcdSolve",
+    "GripLoad",
     "Transitions",
 ];
 
@@ -29,10 +33,10 @@ pub struct FrameTimes<'a> {
     /// Title prefix.
     pub title: String,
     /// Stage names, bottom of the stack first.
-    pub stage_names: [&'a str; 5],
+    pub stage_names: [&'a str; STAGE_COUNT],
     /// Per frame, the wall time of each stage (milliseconds). Non-finite or negative
     /// values count as 0.
-    pub frames_ms: &'a [[f64; 5]],
+    pub frames_ms: &'a [[f64; STAGE_COUNT]],
     /// The frame budget band (ms), shaded; default 12–14 ms (the thesis's one sloth).
     pub budget_ms: (f32, f32),
     /// Canvas width in pixels (clamped to `MIN_SIDE..=MAX_SIDE`).
@@ -43,7 +47,7 @@ pub struct FrameTimes<'a> {
 
 impl<'a> FrameTimes<'a> {
     /// Default stage names, 12–14 ms budget, 1400 × 700 px.
-    pub fn new(frames_ms: &'a [[f64; 5]]) -> Self {
+    pub fn new(frames_ms: &'a [[f64; STAGE_COUNT]]) -> Self {
         FrameTimes {
             title: String::from("frame times"),
             stage_names: DEFAULT_STAGES,
@@ -150,11 +154,11 @@ pub fn draw_frame_times(ft: &FrameTimes) -> Pixmap {
         // Stacked bars, one column per frame (or per group of frames).
         let width_px = (r - l).max(1.0);
         let cols = (n as f32).min(width_px.floor()).max(1.0) as usize;
-        let mut stages: [Batch; 5] = std::array::from_fn(|_| Batch::new());
+        let mut stages: [Batch; STAGE_COUNT] = std::array::from_fn(|_| Batch::new());
         for col in 0..cols {
             let f0 = col * n / cols;
             let f1 = ((col + 1) * n / cols).max(f0 + 1);
-            let mut mean = [0.0f64; 5];
+            let mut mean = [0.0f64; STAGE_COUNT];
             for f in &ft.frames_ms[f0..f1] {
                 for (m, v) in mean.iter_mut().zip(f) {
                     *m += clean(*v);

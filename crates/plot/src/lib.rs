@@ -17,6 +17,7 @@ mod draw;
 mod error;
 mod frame_times;
 mod gait;
+mod loads;
 mod side;
 mod topdown;
 mod types;
@@ -26,9 +27,10 @@ pub mod colors;
 pub use draw::{MAX_SIDE, MIN_SIDE, Rgba};
 pub use error::{PlotError, encode_png, save_png};
 pub use frame_times::{
-    DEFAULT_STAGES, FrameTimes, FrameTimesLayout, draw_frame_times, frame_times_layout,
+    DEFAULT_STAGES, FrameTimes, FrameTimesLayout, STAGE_COUNT, draw_frame_times, frame_times_layout,
 };
 pub use gait::{GaitDiagram, GaitLayout, contact_intervals, draw_gait, gait_layout};
+pub use loads::{LoadChart, draw_loads};
 pub use side::{SideInstant, SideProjection, SideView, draw_side, side_projection};
 pub use topdown::{MapProjection, TopDown, draw_topdown, topdown_projection};
 pub use types::{LIMB_NAMES, LimbPose, SlothPose, TraceLine};

@@ -351,8 +351,14 @@ fn gait_bars_sit_in_their_rows() {
 #[test]
 fn frame_times_show_stages_budget_and_percentiles() {
     let dir = out_dir("frames");
-    let frames: Vec<[f64; 5]> = (0..200)
-        .map(|i| if i % 10 == 0 { [2.0; 5] } else { [1.0; 5] })
+    let frames: Vec<[f64; 6]> = (0..200)
+        .map(|i| {
+            if i % 10 == 0 {
+                [2.0, 2.0, 2.0, 2.0, 2.0, 0.0]
+            } else {
+                [1.0, 1.0, 1.0, 1.0, 1.0, 0.0]
+            }
+        })
         .collect();
     let ft = FrameTimes::new(&frames);
     let pm = roundtrip(&draw_frame_times(&ft), &dir, "frames.png");
@@ -469,9 +475,9 @@ fn non_finite_inputs_are_skipped() {
     roundtrip(&draw_gait(&gd), &dir, "gait.png");
 
     let frames = [
-        [f64::NAN, 1.0, 1.0, 1.0, 1.0],
-        [f64::INFINITY, -3.0, 1.0, 1.0, 1.0],
-        [1.0; 5],
+        [f64::NAN, 1.0, 1.0, 1.0, 1.0, 0.0],
+        [f64::INFINITY, -3.0, 1.0, 1.0, 1.0, 0.0],
+        [1.0; 6],
     ];
     let mut ft = FrameTimes::new(&frames);
     ft.budget_ms = (f32::NAN, 14.0);

@@ -1,11 +1,12 @@
 //! The simulation: the only bevy_ecs crate. One sloth = one entity; the tick
-//! is one schedule of five chained stages (see [`schedule`]); each stage runs
+//! is one schedule of six chained stages (see [`schedule`]); each stage runs
 //! its per-sloth kernel (from `slothsim-gait`) in parallel over all sloths and
 //! times itself into [`StageTimings`]. [`crowd`] is the main job: a crowd of
 //! wandering sloths on a forest; [`scenario`] runs one sloth on a preset.
 
 pub mod baseline;
 pub mod crowd;
+pub mod grip_stats;
 pub mod record;
 pub mod scenario;
 pub mod schedule;
@@ -16,14 +17,15 @@ pub use crowd::{
     CheckpointInfo, Crowd, CrowdError, CrowdSpec, CrowdStats, ForestSource, Percentiles, StagesMs,
     WorstSloths, forest_for, scene_hash, state_hash_of,
 };
+pub use grip_stats::{GripLoadReport, GripLoadStats, LimbLoadReport, ReleaseCounts};
 pub use scenario::{
     STEADY_AFTER_CYCLES, STEADY_BEFORE_STOP_CYCLES, ScenarioResult, ScenarioSpec, SteadyGait,
     TrunkVariant, run_scenario, run_scenario_observed, steady_gait,
 };
-pub use schedule::{SimSystems, StageTimings, build_schedule, init_compute_pool};
+pub use schedule::{STAGES, SimSystems, StageTimings, build_schedule, init_compute_pool};
 pub use world::{
-    BodyAverageMemo, CcdMemo, CrowdNeighbours, Locomotion, SimClock, SlothId, SlothState, Traces,
-    new_world, spawn_sloth,
+    BodyAverageMemo, CcdMemo, CrowdNeighbours, GripLoad, Locomotion, SimClock, SlothId, SlothState,
+    Traces, new_world, spawn_sloth,
 };
 
 /// Writes `bytes` to a temporary file next to `path`, then renames it into

@@ -4,12 +4,13 @@
 use bevy_ecs::prelude::*;
 use glam::Vec3;
 use serde::Serialize;
-use slothsim_gait::{LocomotionConfig, Sloth, SlothObservation, SpawnHint, Status};
+use slothsim_gait::{LimbLoads, LocomotionConfig, Sloth, SlothObservation, SpawnHint, Status};
 use slothsim_observe::{GaitReport, GaitStats, Judge, JudgeReport, Tolerances, Verdict};
 use slothsim_rig::Rig;
 use slothsim_scene::{Preset, PresetKind, TraceScene};
 
 use crate::crowd::{Crowd, Observer};
+use crate::grip_stats::{GripLoadReport, GripLoadStats, ReleaseCounts};
 use crate::snapshot::{PoseAt, TraceLine, sloth_pose, trace_lines};
 use crate::world::{Locomotion, SlothState, Traces};
 
@@ -143,12 +144,22 @@ pub struct ScenarioResult {
     /// The sloth's pose every [`POSE_EVERY_S`] and at the last frame (for the side view).
     #[serde(skip)]
     pub poses: Vec<PoseAt>,
+    /// Grip loads over the run (issue 22).
+    pub grip_load: GripLoadReport,
+    /// Grip loads over the steady-state window of `gait_steady`, if any.
+    pub grip_load_steady: Option<GripLoadReport>,
+    /// Every frame's grip loads with its time (for the loads plot).
+    #[serde(skip)]
+    pub loads: Vec<(f32, LimbLoads)>,
+    /// The release rule's threshold the run used (body weights).
+    #[serde(skip)]
+    pub release_residual_bw: f32,
     /// The traces of the sloth's last step search (for the top-down view).
     #[serde(skip)]
     pub traces: Vec<TraceLine>,
     /// Per-frame stage times (ms), as in [`crate::StageTimings::history`].
     #[serde(skip)]
-    pub stage_ms: Vec<[f64; 5]>,
+    pub stage_ms: Vec<[f64; crate::STAGES]>,
 }
 
 /// The steady state's window starts this many gait cycles after the first frame…
@@ -311,6 +322,23 @@ pub fn run_scenario_observed(
     };
     let gait_steady = until_s
         .and_then(|until_s| steady_gait(&observations, cycle_s, STEADY_AFTER_CYCLES, until_s));
+    let loads = observer.load_history().to_vec();
+    let release = spec.cfg.release_residual_bw;
+    let mut counts = ReleaseCounts::default();
+    counts.add(&s.load);
+    let load_report = |window: Option<(f32, f32)>| {
+        let mut st = GripLoadStats::new();
+        for (t, l) in &loads {
+            if window.is_none_or(|(a, b)| (a..=b).contains(t)) {
+                st.observe(l, release);
+            }
+        }
+        st.finish(counts)
+    };
+    let grip_load = load_report(None);
+    let grip_load_steady = gait_steady
+        .as_ref()
+        .map(|g| load_report(Some((g.from_s, g.to_s))));
     let report = observer.judge().finish();
     let verdict = report.verdict(observer.judge().tolerances());
     Ok(ScenarioResult {
@@ -328,6 +356,10 @@ pub fn run_scenario_observed(
         observations,
         poses,
         traces,
+        grip_load,
+        grip_load_steady,
+        loads,
+        release_residual_bw: release,
         stage_ms,
     })
 }

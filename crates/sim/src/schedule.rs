@@ -1,4 +1,4 @@
-//! The tick, in one place: five chained stages, each one system that runs its
+//! The tick, in one place: six chained stages, each one system that runs its
 //! kernel over every sloth in parallel (`par_iter_mut` on bevy's compute task
 //! pool; CcdSolve takes whole table slices with `contiguous_par_iter_mut`, to
 //! solve sloths two by two in SIMD lanes) and records its wall time.
@@ -19,8 +19,8 @@ use bevy_tasks::{ComputeTaskPool, TaskPoolBuilder};
 use slothsim_gait::Sloth;
 
 use crate::world::{
-    BodyAverageMemo, CcdMemo, CrowdNeighbours, CrowdPoints, Locomotion, SimClock, SlothId,
-    SlothState, Traces, crowd_points,
+    BodyAverageMemo, CcdMemo, CrowdNeighbours, CrowdPoints, GripLoad, Locomotion, SimClock,
+    SlothId, SlothState, Traces, crowd_points,
 };
 
 /// The stages of one tick, in order.
@@ -34,17 +34,23 @@ pub enum SimSystems {
     BodyAverage,
     /// CCD IK of every limb toward its grip or swing-arc point.
     CcdSolve,
+    /// Grip loads: centre of mass and the forces the holding claws carry (issue 22).
+    GripLoad,
     /// Gait sequencer (footfall order) and support rules; queue the next step searches.
     Transitions,
 }
 
+/// Number of stages (columns of [`StageTimings`]).
+pub const STAGES: usize = 6;
+
 /// Wall time of each stage, milliseconds, per frame.
 #[derive(Resource, Debug, Default, Clone)]
 pub struct StageTimings {
-    /// The last frame's stage times: trace, step_search, body_average, ccd_solve, transitions.
-    pub last: [f64; 5],
+    /// The last frame's stage times: trace, step_search, body_average, ccd_solve,
+    /// grip_load, transitions.
+    pub last: [f64; STAGES],
     /// Every frame's stage times, in order.
-    pub history: Vec<[f64; 5]>,
+    pub history: Vec<[f64; STAGES]>,
     /// Traces run in the last frame.
     pub traces_last: u64,
     /// Traces run in all frames.
@@ -57,11 +63,12 @@ pub struct StageTimings {
 
 impl StageTimings {
     /// Stage names in column order.
-    pub const NAMES: [&'static str; 5] = [
+    pub const NAMES: [&'static str; STAGES] = [
         "trace",
         "step_search",
         "body_average",
         "ccd_solve",
+        "grip_load",
         "transitions",
     ];
 }
@@ -155,6 +162,21 @@ fn ccd_stage(
     timings.ccd_iterations_total += timings.ccd_iterations_last;
 }
 
+fn grip_load_stage(
+    loco: Res<Locomotion>,
+    clock: Res<SimClock>,
+    mut q: Query<(&mut SlothState, &mut GripLoad)>,
+    mut timings: ResMut<StageTimings>,
+) {
+    let t = Instant::now();
+    let w = loco.view();
+    let dt = clock.dt;
+    q.par_iter_mut()
+        .batching_strategy(BATCHING)
+        .for_each(|(mut s, mut g)| g.0 = s.0.grip_load(&w, dt));
+    timings.last[4] = ms(t);
+}
+
 fn transitions_stage(
     loco: Res<Locomotion>,
     mut crowd: Option<ResMut<CrowdNeighbours>>,
@@ -186,12 +208,12 @@ fn transitions_stage(
             .rebuild_hashed(q.iter().map(|(id, _, _, pts)| (id.0, &pts.0)));
     }
     clock.frame += 1;
-    timings.last[4] = ms(t);
+    timings.last[5] = ms(t);
     let last = timings.last;
     timings.history.push(last);
 }
 
-/// The tick schedule: the five stages chained in order. Makes sure bevy's
+/// The tick schedule: the six stages chained in order. Makes sure bevy's
 /// compute pool exists (all cores unless [`init_compute_pool`] ran first).
 pub fn build_schedule() -> Schedule {
     init_compute_pool(None);
@@ -204,6 +226,7 @@ pub fn build_schedule() -> Schedule {
             SimSystems::StepSearch,
             SimSystems::BodyAverage,
             SimSystems::CcdSolve,
+            SimSystems::GripLoad,
             SimSystems::Transitions,
         )
             .chain(),
@@ -213,6 +236,7 @@ pub fn build_schedule() -> Schedule {
         step_search_stage.in_set(SimSystems::StepSearch),
         body_average_stage.in_set(SimSystems::BodyAverage),
         ccd_stage.in_set(SimSystems::CcdSolve),
+        grip_load_stage.in_set(SimSystems::GripLoad),
         transitions_stage.in_set(SimSystems::Transitions),
     ));
     s

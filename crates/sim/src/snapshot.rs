@@ -7,11 +7,11 @@
 
 use bevy_ecs::prelude::*;
 use glam::{Quat, Vec3};
-use slothsim_gait::{LimbPhase, Sloth, TraceBatch};
+use slothsim_gait::{LimbLoads, LimbPhase, Sloth, TraceBatch};
 use slothsim_scene::TraceRequest;
 
 use crate::crowd::Crowd;
-use crate::world::{Locomotion, SlothId, SlothState, Traces};
+use crate::world::{GripLoad, Locomotion, SlothId, SlothState, Traces};
 
 /// One limb at one instant, world space (metres).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -165,6 +165,8 @@ pub struct CrowdRecorder {
     pub gait_times: Vec<f32>,
     /// The focus sloth's planted flags per frame (`LF, RF, LH, RH`).
     pub gait_planted: Vec<[bool; 4]>,
+    /// The focus sloth's grip loads per frame (same times as `gait_times`).
+    pub loads: Vec<LimbLoads>,
     last_search: Option<TraceBatch>,
 }
 
@@ -188,6 +190,7 @@ impl CrowdRecorder {
             trails: vec![Vec::new(); n as usize],
             gait_times: Vec::new(),
             gait_planted: Vec::new(),
+            loads: Vec::new(),
             last_search: None,
         };
         r.sample_trails(crowd);
@@ -222,6 +225,11 @@ impl CrowdRecorder {
             self.gait_times.push(s.0.time);
             self.gait_planted
                 .push(s.0.limbs.map(|l| l.phase != LimbPhase::Swinging));
+            self.loads.push(
+                world
+                    .get::<GripLoad>(e)
+                    .map_or_else(LimbLoads::default, |g| g.0),
+            );
         }
         if let Some(t) = world.get::<Traces>(e)
             && t.0.len > 0

@@ -4,8 +4,8 @@ use bevy_ecs::prelude::*;
 // Re-exported so `crate::world::crowd_points` (crowd.rs) keeps working; it lives in gait.
 pub use slothsim_gait::crowd_points;
 use slothsim_gait::{
-    BodyMemo, CrowdGrid, HashedPoint, LocoEnv, LocoView, LocomotionConfig, Sloth, SolveMemo,
-    SpawnHint, TraceBatch,
+    BodyMemo, CrowdGrid, HashedPoint, LimbLoads, LocoEnv, LocoView, LocomotionConfig, Sloth,
+    SolveMemo, SpawnHint, TraceBatch,
 };
 use slothsim_rig::Rig;
 use slothsim_scene::{SupportId, TraceScene};
@@ -16,7 +16,7 @@ pub struct SlothId(pub u32);
 
 /// A sloth's locomotion state.
 #[derive(Component, Clone, Debug)]
-#[require(CrowdPoints, CcdMemo, BodyAverageMemo)]
+#[require(CrowdPoints, CcdMemo, BodyAverageMemo, GripLoad)]
 pub struct SlothState(pub Sloth);
 
 /// What the CcdSolve stage keeps of a sloth's last solve, to skip the next one
@@ -28,6 +28,11 @@ pub struct CcdMemo(pub SolveMemo);
 /// next one where it would change nothing ([`Sloth::body_average_memo`]).
 #[derive(Component, Clone, Copy, Debug, Default)]
 pub struct BodyAverageMemo(pub BodyMemo);
+
+/// A sloth's grip loads this frame (written by the GripLoad stage): the force on each
+/// holding limb and the residual wrench (see `slothsim-load`).
+#[derive(Component, Clone, Copy, Debug, Default)]
+pub struct GripLoad(pub LimbLoads);
 
 impl AsMut<Sloth> for SlothState {
     fn as_mut(&mut self) -> &mut Sloth {

@@ -58,6 +58,7 @@ impl Sloth {
                 self.limbs[li].due = true;
             }
         }
+        let mut held_back = false;
         for li in 0..4 {
             let planted = self
                 .limbs
@@ -66,6 +67,14 @@ impl Sloth {
                 .count();
             let l = self.limbs[li];
             if !l.due || l.phase != LimbPhase::Planted || planted < 3 || arriving {
+                continue;
+            }
+            // Release rule (issue 22): the grips that stay must carry the body.
+            if !self.release_allowed(env, li) {
+                if !held_back {
+                    held_back = true;
+                    self.load.held_back_frames += 1;
+                }
                 continue;
             }
             self.limbs[li].due = false;

@@ -223,6 +223,9 @@ pub struct Sloth {
     /// Wander mode, stopped (`NoGrip`): the time it tries again (the way
     /// may have been blocked by sloths that since moved on).
     pub resume_at: Option<f32>,
+    /// Grip loads: centre-of-mass history and the release rule's counters.
+    #[serde(default)]
+    pub load: crate::load::LoadTrack,
 }
 
 /// Serde for [`ChainPose`] (four quaternions, bit-exact through serde's f32).

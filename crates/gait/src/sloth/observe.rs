@@ -62,6 +62,7 @@ impl Sloth {
             },
             goal_held: self.goal.is_none_or(|(gs, _)| self.holds_only(gs)),
             has_nan,
+            residual_bw: self.load.residual_bw,
         }
     }
 }

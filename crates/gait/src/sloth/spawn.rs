@@ -112,6 +112,7 @@ impl Sloth {
             turns: 0,
             stalled_turns: 0,
             resume_at: None,
+            load: crate::load::LoadTrack::default(),
             transfer: None,
             hind_back_scale: 1.0,
             hang_side: Vec3::ZERO,

@@ -136,6 +136,7 @@ impl Walk {
             goal_distance_m: (self.goal_z - body_pos.z).abs(),
             goal_held: true,
             has_nan: false,
+            residual_bw: 0.0,
         }
     }
 

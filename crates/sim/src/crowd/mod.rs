@@ -18,7 +18,9 @@ use slothsim_observe::Judge;
 use slothsim_scene::ForestConfig;
 
 use crate::StageTimings;
-use crate::world::{CrowdNeighbours, Locomotion, SimClock, SlothId, SlothState, Traces, new_world};
+use crate::world::{
+    CrowdNeighbours, GripLoad, Locomotion, SimClock, SlothId, SlothState, Traces, new_world,
+};
 
 pub mod checkpoint;
 pub mod hash;
@@ -208,7 +210,7 @@ impl Crowd {
         self.world.resource::<StageTimings>()
     }
 
-    /// One tick (the five stages) without the judge/statistics pass: what
+    /// One tick (the six stages) without the judge/statistics pass: what
     /// `slothsim bench` times. The run's judge misses the frames run this way.
     pub fn tick(&mut self) {
         self.schedule.run(&mut self.world);
@@ -218,12 +220,18 @@ impl Crowd {
     pub fn step(&mut self) {
         self.schedule.run(&mut self.world);
         let t = std::time::Instant::now();
-        let mut q = self.world.query::<(&SlothState, &mut Observer)>();
+        let mut q = self
+            .world
+            .query::<(&SlothState, &GripLoad, &mut Observer)>();
         self.world.resource_scope(|world, loco: Mut<Locomotion>| {
             let w = loco.view();
+            let release = w.cfg.release_residual_bw;
             q.par_iter_mut(world)
                 .batching_strategy(crate::schedule::BATCHING)
-                .for_each(|(s, mut o)| o.observe(&s.0.observe(&w)));
+                .for_each(|(s, g, mut o)| {
+                    o.observe(&s.0.observe(&w));
+                    o.observe_loads(s.0.time, &g.0, release);
+                });
         });
         self.observe_ms.push(t.elapsed().as_secs_f64() * 1e3);
     }

@@ -4,11 +4,12 @@
 
 use bevy_ecs::prelude::*;
 use serde::Serialize;
-use slothsim_gait::SlothObservation;
+use slothsim_gait::{LimbLoads, SlothObservation};
 use slothsim_observe::{GaitReport, GaitStats, Judge, JudgeReport, Tolerances};
 use slothsim_scene::{SupportId, SupportKind};
 
 use super::Crowd;
+use crate::grip_stats::{GripLoadReport, GripLoadStats, ReleaseCounts};
 use crate::world::{Locomotion, SlothId, SlothState};
 
 /// A sloth that has not completed a step for this long at the end of a run is stuck.
@@ -42,6 +43,10 @@ pub struct Observer {
     kind_changes: u32,
     /// `on_trunk` of the last frame.
     on_trunk: Option<bool>,
+    /// Grip loads (issue 22).
+    loads: GripLoadStats,
+    /// Every frame's grip loads with its time, when the history is kept.
+    load_history: Option<Vec<(f32, LimbLoads)>>,
 }
 
 impl Observer {
@@ -59,7 +64,28 @@ impl Observer {
             frames: 0,
             kind_changes: 0,
             on_trunk: None,
+            loads: GripLoadStats::new(),
+            load_history: keep_history.then(Vec::new),
         }
+    }
+
+    /// This frame's grip loads (after [`Observer::observe`] of the same frame);
+    /// `release_bw` is the release rule's threshold.
+    pub(super) fn observe_loads(&mut self, time_s: f32, loads: &LimbLoads, release_bw: f32) {
+        self.loads.observe(loads, release_bw);
+        if let Some(h) = &mut self.load_history {
+            h.push((time_s, *loads));
+        }
+    }
+
+    /// The grip-load statistics so far.
+    pub fn loads(&self) -> &GripLoadStats {
+        &self.loads
+    }
+
+    /// Every frame's grip loads with its time, oldest first (empty unless kept).
+    pub fn load_history(&self) -> &[(f32, LimbLoads)] {
+        self.load_history.as_deref().unwrap_or_default()
     }
 
     pub(super) fn observe(&mut self, obs: &SlothObservation) {
@@ -157,6 +183,8 @@ pub struct CrowdStats {
     pub roaming: Roaming,
     /// Which sloth holds the worst value of each measure (id), for follow-up.
     pub worst_sloths: WorstSloths,
+    /// Grip loads over the crowd (issue 22).
+    pub grip_load: GripLoadReport,
     /// The full judge report over the crowd.
     pub judge: JudgeReport,
 }
@@ -243,20 +271,23 @@ pub struct StagesMs {
     pub body_average: Percentiles,
     /// CcdSolve stage.
     pub ccd_solve: Percentiles,
+    /// GripLoad stage.
+    pub grip_load: Percentiles,
     /// Transitions stage (includes rebuilding the neighbour grid).
     pub transitions: Percentiles,
 }
 
 impl StagesMs {
     /// From per-frame stage times (columns in [`StageTimings::NAMES`](crate::StageTimings::NAMES) order).
-    pub fn of(history: &[[f64; 5]]) -> Self {
+    pub fn of(history: &[[f64; crate::STAGES]]) -> Self {
         let col = |i: usize| Percentiles::of(&history.iter().map(|r| r[i]).collect::<Vec<_>>());
         StagesMs {
             trace: col(0),
             step_search: col(1),
             body_average: col(2),
             ccd_solve: col(3),
-            transitions: col(4),
+            grip_load: col(4),
+            transitions: col(5),
         }
     }
 }
@@ -297,6 +328,16 @@ impl Crowd {
             min_limbs_in_contact: worst_by(reports(), |j| -(j.min_limbs_in_contact as f32)),
         };
         let time_s = rows.first().map_or(0.0, |r| r.1);
+        let grip_load = {
+            let mut q = self.world.query::<(&SlothState, &Observer)>();
+            let mut counts = ReleaseCounts::default();
+            let mut parts = Vec::new();
+            for (s, o) in q.iter(&self.world) {
+                counts.add(&s.0.load);
+                parts.push(&o.loads);
+            }
+            GripLoadStats::report(parts, counts)
+        };
         let state_hash = format!("{:016x}", self.state_hash());
         CrowdStats {
             sloths: rows.len() as u32,
@@ -325,6 +366,7 @@ impl Crowd {
             roaming,
             worst_sloths,
             gait,
+            grip_load,
             judge,
         }
     }

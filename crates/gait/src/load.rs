@@ -1,0 +1,253 @@
+//! Grip loads of a sloth (issue 22): its centre of mass from the body and limb segments,
+//! the acceleration of that point from the sim's own trajectory, and the forces its
+//! holding claws carry (`slothsim-load`). The release rule asks the same question
+//! of the grips that would stay: may this limb let go?
+
+use glam::Vec3;
+use serde::{Deserialize, Serialize};
+use slothsim_load::{Grip as LoadGrip, LoadError, LoadParams, MassPoint, Stance};
+
+use crate::LocoView;
+use crate::LocomotionConfig;
+use crate::sloth::{LimbPhase, Sloth};
+
+/// Mass of each limb as a share of the body mass (the rest is the torso and head, at the
+/// torso's centre). An assumption (no sloth segment masses known to us): four limbs
+/// 24 % together, split upper 50 % / lower 35 % / hand or foot 15 %.
+pub const LIMB_MASS_SHARE: f32 = 0.06;
+const SEGMENT_SHARE: [f32; 3] = [0.50, 0.35, 0.15];
+
+/// Time constant (s) of the filters on the centre of mass's velocity and acceleration.
+/// The gait's own accelerations change over a stride (~1 s); per-frame jitter of the
+/// solved pose (~1 mm) would read as ~0.4 g in a raw second difference at 60 Hz.
+pub const COM_FILTER_S: f32 = 0.1;
+
+/// Longest a due limb waits for the release rule (s): then it lets go anyway (counted in
+/// `forced_releases`), so a stance the grips cannot carry never stalls the gait for good.
+pub const RELEASE_MAX_WAIT_S: f32 = 1.0;
+
+/// Grip-load memory kept across frames (checkpointed, so resumed runs decide alike).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct LoadTrack {
+    /// Last frame's centre of mass.
+    pub com: Vec3,
+    /// Filtered velocity of the centre of mass.
+    pub vel: Vec3,
+    /// Filtered acceleration of the centre of mass.
+    pub acc: Vec3,
+    /// Frames recorded (saturates at 3: position, velocity and acceleration valid).
+    pub samples: u8,
+    /// Frames in which a due limb waited because the others could not carry the body.
+    pub held_back_frames: u32,
+    /// Grip-load solves that failed (the limb then follows the thesis rule alone).
+    pub failures: u32,
+    /// This frame's residual wrench (body weights), for the judge.
+    pub residual_bw: f32,
+    /// Per limb, the time the release rule started holding it back (negative: not held).
+    pub held_since: [f32; 4],
+    /// Limbs that let go after waiting [`RELEASE_MAX_WAIT_S`].
+    pub forced_releases: u32,
+}
+
+impl Default for LoadTrack {
+    fn default() -> Self {
+        LoadTrack {
+            com: Vec3::ZERO,
+            vel: Vec3::ZERO,
+            acc: Vec3::ZERO,
+            samples: 0,
+            held_back_frames: 0,
+            failures: 0,
+            residual_bw: 0.0,
+            held_since: [-1.0; 4],
+            forced_releases: 0,
+        }
+    }
+}
+
+impl LoadTrack {
+    /// Records this frame's centre of mass: velocity and acceleration by first
+    /// differences, each through an exponential filter of time constant
+    /// [`COM_FILTER_S`] (a filtered second difference of the trajectory).
+    pub fn record(&mut self, com: Vec3, dt: f32) {
+        let a = dt / (COM_FILTER_S + dt);
+        if self.samples >= 1 && dt > 0.0 {
+            let v = (com - self.com) / dt;
+            let vel = if self.samples >= 2 {
+                self.vel + a * (v - self.vel)
+            } else {
+                v
+            };
+            if self.samples >= 2 {
+                let acc = (vel - self.vel) / dt;
+                self.acc = if self.samples >= 3 {
+                    self.acc + a * (acc - self.acc)
+                } else {
+                    acc
+                };
+            }
+            self.vel = vel;
+        }
+        self.com = com;
+        self.samples = (self.samples + 1).min(3);
+    }
+
+    /// Filtered acceleration (zero until three frames were recorded).
+    pub fn com_acc(&self) -> Vec3 {
+        if self.samples >= 3 {
+            self.acc
+        } else {
+            Vec3::ZERO
+        }
+    }
+}
+
+/// Loads of one frame, by limb (`Limb::index`).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct LimbLoads {
+    /// Force of the support on each holding limb (N); zero for a swinging limb.
+    pub force: [Vec3; 4],
+    /// Residual force (N) at the centre of mass and torque (N·m) about it.
+    pub residual_force: Vec3,
+    /// Residual torque (N·m).
+    pub residual_torque: Vec3,
+    /// Size of the residual wrench in body weights.
+    pub residual_bw: f32,
+    /// Body weight (N).
+    pub weight_n: f32,
+    /// False when the solve failed this frame (everything else is then zero).
+    pub ok: bool,
+}
+
+/// The kernel's parameters from the locomotion config.
+pub fn load_params(cfg: &LocomotionConfig) -> LoadParams {
+    LoadParams {
+        mass_kg: f64::from(cfg.mass_kg),
+        mu: f64::from(cfg.grip_mu),
+        grip_strength_bw: f64::from(cfg.grip_strength_bw),
+        push_strength_bw: f64::from(cfg.push_strength_bw),
+        w_residual: f64::from(cfg.load_w_residual),
+        w_force: f64::from(cfg.load_w_force),
+        ..LoadParams::default()
+    }
+}
+
+impl Sloth {
+    /// Centre of mass: torso at the middle of its capsule, each limb's upper, lower and
+    /// hand/foot segments at their midpoints (forward kinematics of the solved pose).
+    pub fn centre_of_mass(&self, w: &LocoView<'_>) -> Vec3 {
+        let rig = w.rig;
+        let torso = self.body_pos + self.body_rot * (0.5 * (rig.torso_ms[0] + rig.torso_ms[1]));
+        let mut points = [MassPoint {
+            point: torso,
+            mass: 1.0 - 4.0 * LIMB_MASS_SHARE,
+        }; 13];
+        for li in 0..4 {
+            let root = rig.root_ws(li, self.body_pos, self.body_rot);
+            let j = rig.chains[li].fk(root, &self.limbs[li].pose);
+            for (s, share) in SEGMENT_SHARE.iter().enumerate() {
+                points[1 + 3 * li + s] = MassPoint {
+                    point: 0.5 * (j[1 + s] + j[2 + s]),
+                    mass: LIMB_MASS_SHARE * share,
+                };
+            }
+        }
+        slothsim_load::centre_of_mass(&points).unwrap_or(torso)
+    }
+
+    /// Loads with the holding limbs except `except` (a limb index, or 4 for none),
+    /// from the centre of mass and acceleration last recorded by [`Sloth::grip_load`].
+    fn loads_without(&self, w: &LocoView<'_>, except: usize) -> Result<LimbLoads, LoadError> {
+        let params = load_params(w.cfg);
+        let mut grips = [LoadGrip {
+            point: Vec3::ZERO,
+            normal: Vec3::Y,
+        }; 4];
+        let mut limb_of = [0usize; 4];
+        let mut k = 0;
+        for (li, l) in self.limbs.iter().enumerate() {
+            if li != except && l.phase != LimbPhase::Swinging {
+                grips[k] = LoadGrip {
+                    point: l.grip.point,
+                    normal: l.grip.normal,
+                };
+                limb_of[k] = li;
+                k += 1;
+            }
+        }
+        let com = if self.load.samples > 0 {
+            self.load.com
+        } else {
+            self.centre_of_mass(w)
+        };
+        let stance = Stance {
+            com,
+            com_acc: self.load.com_acc(),
+            ang_mom_rate: Vec3::ZERO,
+            grips: &grips[..k],
+        };
+        let solved = slothsim_load::solve(&params, &stance)?;
+        let mut out = LimbLoads {
+            residual_force: solved.residual_force,
+            residual_torque: solved.residual_torque,
+            residual_bw: solved.residual_bw(&params),
+            weight_n: params.body_weight_n() as f32,
+            ok: true,
+            ..LimbLoads::default()
+        };
+        for (i, f) in solved.grip_forces().iter().enumerate() {
+            out.force[limb_of[i]] = *f;
+        }
+        Ok(out)
+    }
+
+    /// The GripLoad stage's kernel: record this frame's centre of mass, then the forces
+    /// every holding claw carries and the residual. A solver failure is counted
+    /// (`load.failures`) and returns loads with `ok = false`, never NaN.
+    pub fn grip_load(&mut self, w: &LocoView<'_>, dt: f32) -> LimbLoads {
+        let com = self.centre_of_mass(w);
+        self.load.record(com, dt);
+        match self.loads_without(w, 4) {
+            Ok(l) => {
+                self.load.residual_bw = l.residual_bw;
+                l
+            }
+            Err(_) => {
+                self.load.failures += 1;
+                LimbLoads::default()
+            }
+        }
+    }
+
+    /// Release rule: may limb `li` let go? Only if the other holding grips carry the body
+    /// with a residual of at most `release_residual_bw`, or it has waited
+    /// [`RELEASE_MAX_WAIT_S`] already. Not applied during a branch ↔ trunk transfer nor
+    /// while the body still rolls clear of the trunk it left (`hang_trunk`): the thesis's
+    /// own stance checks rule there. A failed solve is counted and leaves the thesis
+    /// rule (at least two grips) alone in charge.
+    pub(crate) fn release_allowed(&mut self, w: &LocoView<'_>, li: usize) -> bool {
+        let allowed = self.transfer.is_some()
+            || self.hang_trunk.is_some()
+            || match self.loads_without(w, li) {
+                Ok(l) => l.residual_bw <= w.cfg.release_residual_bw,
+                Err(_) => {
+                    self.load.failures += 1;
+                    true
+                }
+            };
+        let since = &mut self.load.held_since[li];
+        if allowed {
+            *since = -1.0;
+            return true;
+        }
+        if *since < 0.0 {
+            *since = self.time;
+        }
+        if self.time - *since >= RELEASE_MAX_WAIT_S {
+            *since = -1.0;
+            self.load.forced_releases += 1;
+            return true;
+        }
+        false
+    }
+}
