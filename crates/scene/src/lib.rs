@@ -7,6 +7,7 @@ mod error;
 mod forest;
 mod gltf_io;
 mod model;
+mod percentile;
 mod presets;
 mod primitive;
 mod trace;
@@ -23,6 +24,7 @@ pub use model::{
     Bounds, Scene, Support, SupportId, SupportKind, TRUNK_TILT_DEG, TriMesh, closest_on_segment,
     tilt_of,
 };
+pub use percentile::percentile_sorted;
 pub use presets::{Goal, PRESET_BRANCH_RADIUS, PRESET_HEIGHT, Preset, PresetKind, StartHint};
 pub use trace::{
     BoxOverlap, BvhStats, LineTrace, SceneQuery, SphereSweep, TraceHit, TraceRequest, TraceResult,

@@ -1,0 +1,380 @@
+//! The specialised solver: a closed-form unconstrained optimum when it already lies in
+//! every grip set (the common case: a sloth hanging within its grip and friction limits),
+//! else a primal log-barrier method (Boyd & Vandenberghe, *Convex Optimization*, §11.3)
+//! on ≤ 12 unknowns with dense Cholesky Newton steps, started from the strictly feasible
+//! zero force. See the crate README for the measured cost and the proof against clarabel.
+
+// Dense index arithmetic on ≤ 12×12 matrices reads best as index loops.
+#![allow(clippy::needless_range_loop)]
+
+use crate::model::{MAX_GRIPS, Problem, slacks_scaled};
+use crate::{GripLoads, LoadError, LoadParams, Stance};
+
+const N_MAX: usize = 3 * MAX_GRIPS;
+type Mat = [[f64; N_MAX]; N_MAX];
+type VecN = [f64; N_MAX];
+
+/// Duality-gap bound at which the barrier stops, relative to `w_force`: the force error
+/// is then ≤ √(gap / w_force) ≈ 3e-5 BW (the objective is w_force-strongly convex; on the
+/// central path it is in practice O(gap), see the comparison with clarabel).
+const GAP: f64 = 1.0e-9;
+/// Gap accepted when rounding stops the path early (force error in practice ≪ 1e-4 BW).
+const LOOSE_GAP: f64 = 1.0e-7;
+/// Growth of the barrier parameter between centring steps.
+const T_GROWTH: f64 = 16.0;
+/// Newton decrement² / 2 at which a centring step is done (the objective is then within
+/// this / t of the centre; at large t rounding in the active slacks floors it near 1e-6).
+const NEWTON_TOL: f64 = 1.0e-5;
+/// A Newton move (BW) below which the centre counts as reached.
+const MIN_MOVE: f64 = 1.0e-10;
+/// Newton steps allowed in all.
+const MAX_NEWTON: u32 = 300;
+
+/// Grip loads by the specialised solver. Errors: invalid parameters or input (named),
+/// or a solver failure (never a panic, never NaN).
+pub fn solve(params: &LoadParams, stance: &Stance) -> Result<GripLoads, LoadError> {
+    let p = Problem::new(params, stance)?;
+    let (x, iters) = solve_problem(&p)?;
+    p.loads(&x[..p.n()], iters)
+}
+
+/// Hessian 2(w_r AᵀA + w_f I) and linear term 2 w_r Aᵀb of the objective.
+fn quadratic(p: &Problem) -> (Mat, VecN) {
+    let n = p.n();
+    let mut h = [[0.0; N_MAX]; N_MAX];
+    let mut g = [0.0; N_MAX];
+    for i in 0..n {
+        for j in i..n {
+            let s: f64 = (0..6).map(|r| p.a[r][i] * p.a[r][j]).sum();
+            h[i][j] = 2.0 * p.w_r * s;
+            h[j][i] = h[i][j];
+        }
+        h[i][i] += 2.0 * p.w_f;
+        g[i] = 2.0 * p.w_r * (0..6).map(|r| p.a[r][i] * p.b[r]).sum::<f64>();
+    }
+    (h, g)
+}
+
+/// Solve `M y = rhs` for the leading n×n block of a symmetric positive definite `M`
+/// (overwritten) by Cholesky with symmetric diagonal (Jacobi) scaling, which keeps the
+/// barrier's badly scaled Newton systems factorable; `None` if not positive definite.
+fn cholesky_solve(m: &mut Mat, rhs: &VecN, n: usize) -> Option<VecN> {
+    let mut scale = [1.0; N_MAX];
+    for i in 0..n {
+        if m[i][i].is_nan() || m[i][i] <= 0.0 || m[i][i].is_infinite() {
+            return None;
+        }
+        scale[i] = 1.0 / m[i][i].sqrt();
+    }
+    for i in 0..n {
+        for j in 0..n {
+            m[i][j] *= scale[i] * scale[j];
+        }
+    }
+    let rhs: VecN = std::array::from_fn(|i| rhs[i] * scale[i]);
+    let y = cholesky_unscaled(m, &rhs, n)?;
+    Some(std::array::from_fn(|i| y[i] * scale[i]))
+}
+
+fn cholesky_unscaled(m: &mut Mat, rhs: &VecN, n: usize) -> Option<VecN> {
+    for j in 0..n {
+        let mut d = m[j][j];
+        for k in 0..j {
+            d -= m[j][k] * m[j][k];
+        }
+        if d.is_nan() || d <= 0.0 || d.is_infinite() {
+            return None;
+        }
+        let d = d.sqrt();
+        m[j][j] = d;
+        for i in j + 1..n {
+            let mut s = m[i][j];
+            for k in 0..j {
+                s -= m[i][k] * m[j][k];
+            }
+            m[i][j] = s / d;
+        }
+    }
+    let mut y = *rhs;
+    for i in 0..n {
+        for k in 0..i {
+            y[i] -= m[i][k] * y[k];
+        }
+        y[i] /= m[i][i];
+    }
+    for i in (0..n).rev() {
+        for k in i + 1..n {
+            y[i] -= m[k][i] * y[k];
+        }
+        y[i] /= m[i][i];
+    }
+    Some(y)
+}
+
+/// Per-grip barrier arguments (pull slack u, µ²(s_n+2G)² − |t|² = v); `None` outside the
+/// interior.
+fn barrier_args(p: &Problem, x: &[f64]) -> Option<[(f64, f64, f64); MAX_GRIPS]> {
+    let mut out = [(1.0, 1.0, 1.0); MAX_GRIPS];
+    for (i, o) in out.iter_mut().enumerate().take(p.k) {
+        let n = p.normal[i];
+        let f = Problem::force(x, i);
+        let sn = f.dot(n);
+        let u = sn + p.grip;
+        let s = p.mu * (sn + 2.0 * p.grip);
+        let t = f - sn * n;
+        let v = s * s - t.length_squared();
+        let q = p.push - sn;
+        if u.is_nan() || v.is_nan() || q.is_nan() || u <= 0.0 || s <= 0.0 || v <= 0.0 || q <= 0.0 {
+            return None;
+        }
+        *o = (u, v, q);
+    }
+    Some(out)
+}
+
+/// Add the barrier's gradient and Hessian to `g`, `h`.
+fn add_barrier_derivatives(p: &Problem, x: &[f64], g: &mut VecN, h: &mut Mat) {
+    for i in 0..p.k {
+        let n = p.normal[i];
+        let f = Problem::force(x, i);
+        let sn = f.dot(n);
+        let u = sn + p.grip;
+        let s = p.mu * (sn + 2.0 * p.grip);
+        let t = f - sn * n;
+        let v = s * s - t.length_squared();
+        // ∇v = 2µ s n − 2t ; ∇²v = 2µ² n nᵀ − 2 (I − n nᵀ).
+        let q = p.push - sn;
+        let dv = 2.0 * p.mu * s * n - 2.0 * t;
+        let gi = -n / u - dv / v + n / q;
+        let (na, dva) = (n.to_array(), dv.to_array());
+        for r in 0..3 {
+            g[3 * i + r] += gi[r];
+            for c in 0..3 {
+                let eye = if r == c { 1.0 } else { 0.0 };
+                let nn = na[r] * na[c];
+                let d2v = 2.0 * p.mu * p.mu * nn - 2.0 * (eye - nn);
+                h[3 * i + r][3 * i + c] +=
+                    nn / (u * u) + nn / (q * q) + dva[r] * dva[c] / (v * v) - d2v / v;
+            }
+        }
+    }
+}
+
+fn strictly_feasible(p: &Problem, x: &[f64]) -> bool {
+    (0..p.k).all(|i| {
+        let (u, q, c) = slacks_scaled(p.mu, p.grip, p.push, p.normal[i], Problem::force(x, i));
+        u > 0.0 && q > 0.0 && c > 0.0
+    })
+}
+
+/// The optimum with only the pull and push limits (linear in the force) by a primal
+/// active-set method; it is the answer when every friction cone holds there strictly
+/// (adding constraints that hold at the relaxed optimum does not move it). `None` when a
+/// cone is violated or the method does not settle: the barrier then solves the problem.
+fn linear_active_set(p: &Problem, hq: &Mat, gq: &VecN) -> Option<VecN> {
+    let n = p.n();
+    // Constraint j of grip i: a·x ≥ b with a = ±n_i on the grip's block;
+    // 0: pull (n·x ≥ −G), 1: push (−n·x ≥ −P). At most one per grip can bind.
+    let row = |i: usize, kind: usize| -> (VecN, f64) {
+        let mut a = [0.0; N_MAX];
+        let sign = if kind == 0 { 1.0 } else { -1.0 };
+        for c in 0..3 {
+            a[3 * i + c] = sign * p.normal[i][c];
+        }
+        (a, if kind == 0 { -p.grip } else { -p.push })
+    };
+    let solve_h = |rhs: &VecN| cholesky_solve(&mut hq.clone(), rhs, n);
+    let hinv_g = solve_h(gq)?;
+    let mut working: [Option<usize>; MAX_GRIPS] = [None; MAX_GRIPS];
+    for _ in 0..12 {
+        let active: Vec<(usize, usize)> = (0..p.k)
+            .filter_map(|i| working[i].map(|kind| (i, kind)))
+            .collect();
+        let rows: Vec<(VecN, f64)> = active.iter().map(|&(i, k)| row(i, k)).collect();
+        let hinv_a: Vec<VecN> = rows
+            .iter()
+            .map(|(a, _)| solve_h(a))
+            .collect::<Option<_>>()?;
+        // (A H⁻¹ Aᵀ) µ = b − A H⁻¹ g, then x = H⁻¹ (g + Aᵀ µ).
+        let m = rows.len();
+        let mut s = [[0.0; N_MAX]; N_MAX];
+        let mut r = [0.0; N_MAX];
+        for (j, (aj, bj)) in rows.iter().enumerate() {
+            for (l, hl) in hinv_a.iter().enumerate() {
+                s[j][l] = (0..n).map(|c| aj[c] * hl[c]).sum();
+            }
+            r[j] = bj - (0..n).map(|c| aj[c] * hinv_g[c]).sum::<f64>();
+        }
+        let mu = if m > 0 {
+            cholesky_solve(&mut s, &r, m)?
+        } else {
+            [0.0; N_MAX]
+        };
+        let mut x = hinv_g;
+        for (j, hl) in hinv_a.iter().enumerate() {
+            for c in 0..n {
+                x[c] += mu[j] * hl[c];
+            }
+        }
+        // A negative multiplier: that limit does not hold the force back; drop it.
+        if let Some((j, _)) = (0..m)
+            .map(|j| (j, mu[j]))
+            .filter(|&(_, v)| v < 0.0)
+            .min_by(|a, b| a.1.total_cmp(&b.1))
+        {
+            working[active[j].0] = None;
+            continue;
+        }
+        // The most violated limit outside the working set joins it.
+        let mut worst: Option<(usize, usize, f64)> = None;
+        for i in (0..p.k).filter(|&i| working[i].is_none()) {
+            for kind in 0..2 {
+                let (a, b) = row(i, kind);
+                let v = (0..n).map(|c| a[c] * x[c]).sum::<f64>() - b;
+                if v < 0.0 && worst.is_none_or(|w| v < w.2) {
+                    worst = Some((i, kind, v));
+                }
+            }
+        }
+        if let Some((i, kind, _)) = worst {
+            working[i] = Some(kind);
+            continue;
+        }
+        // Linear limits hold with valid multipliers: the answer if every cone holds.
+        let cones_hold = (0..p.k).all(|i| {
+            let (_, _, c) = slacks_scaled(p.mu, p.grip, p.push, p.normal[i], Problem::force(&x, i));
+            c > 0.0
+        });
+        return cones_hold.then_some(x);
+    }
+    None
+}
+
+/// Solve the scaled problem; returns the forces (BW) and the Newton steps taken.
+pub(crate) fn solve_problem(p: &Problem) -> Result<(VecN, u32), LoadError> {
+    let n = p.n();
+    let (hq, gq) = quadratic(p);
+    if n == 0 {
+        return Ok(([0.0; N_MAX], 0));
+    }
+    // Unconstrained optimum: if it lies strictly inside every grip set it is the answer.
+    let mut m = hq;
+    let x0 = cholesky_solve(&mut m, &gq, n)
+        .ok_or_else(|| LoadError::SolverFailed("objective not positive definite".into()))?;
+    if strictly_feasible(p, &x0[..n]) {
+        return Ok((x0, 0));
+    }
+    if let Some(x) = linear_active_set(p, &hq, &gq) {
+        return Ok((x, 0));
+    }
+    // Barrier path. Start on the segment from 0 (strictly inside: pull slack G, cone
+    // slack 2µG) toward the unconstrained optimum, 90 % of the way to the first limit;
+    // t₀ = degree / (J(start) − J(unconstrained)), the duality gap the start is worth.
+    let mut lo = 0.0;
+    let mut hi = 1.0;
+    for _ in 0..30 {
+        let mid = 0.5 * (lo + hi);
+        if strictly_feasible(p, &x0.map(|v| v * mid)[..n]) {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    let mut x = x0.map(|v| v * 0.9 * lo);
+    let degree = 4.0 * p.k as f64; // 2 (half-spaces) + 2 (second-order cone) per grip
+    let d: VecN = std::array::from_fn(|i| x[i] - x0[i]);
+    let gap0: f64 = (0..n)
+        .map(|r| 0.5 * d[r] * (0..n).map(|c| hq[r][c] * d[c]).sum::<f64>())
+        .sum();
+    let mut t = degree / gap0.max(1e-12);
+    let mut steps = 0u32;
+    let mut centred = None;
+    loop {
+        // Centre: Newton on t·J + barrier.
+        loop {
+            if steps >= MAX_NEWTON {
+                return Err(LoadError::SolverFailed(format!(
+                    "barrier: no convergence in {MAX_NEWTON} Newton steps"
+                )));
+            }
+            steps += 1;
+            let mut g = [0.0; N_MAX];
+            let mut h = [[0.0; N_MAX]; N_MAX];
+            let mut gx = [0.0; N_MAX];
+            for r in 0..n {
+                gx[r] = (0..n).map(|c| hq[r][c] * x[c]).sum();
+                g[r] = t * (gx[r] - gq[r]);
+                for c in 0..n {
+                    h[r][c] = t * hq[r][c];
+                }
+            }
+            add_barrier_derivatives(p, &x[..n], &mut g, &mut h);
+            let neg_g = g.map(|v| -v);
+            let step_dir = cholesky_solve(&mut h, &neg_g, n).and_then(|dx| {
+                let decrement2: f64 = (0..n).map(|i| -g[i] * dx[i]).sum();
+                decrement2.is_finite().then_some((dx, decrement2))
+            });
+            let Some((dx, decrement2)) = step_dir else {
+                // Rounding broke the Newton system (huge internal forces at large t): the
+                // last centre is the answer if its gap is already small.
+                return match centred {
+                    Some(tc) if degree / tc < LOOSE_GAP * p.w_f => Ok((x, steps)),
+                    _ => Err(LoadError::SolverFailed(
+                        "barrier: Newton system singular".into(),
+                    )),
+                };
+            };
+            if decrement2 / 2.0 <= NEWTON_TOL {
+                break;
+            }
+            // Backtracking: stay strictly inside, then sufficient decrease (α = 0.25,
+            // β = 0.5). The change of t·J + barrier is formed from differences (exact for
+            // the quadratic J, log-ratios for the barrier) so that it stays accurate when
+            // t·J is huge.
+            let args0 = barrier_args(p, &x[..n])
+                .ok_or_else(|| LoadError::SolverFailed("barrier: left the interior".into()))?;
+            let mut hdx = [0.0; N_MAX];
+            for r in 0..n {
+                hdx[r] = (0..n).map(|c| hq[r][c] * dx[c]).sum();
+            }
+            let gj_dx: f64 = (0..n).map(|r| (gx[r] - gq[r]) * dx[r]).sum();
+            let dx_h_dx: f64 = (0..n).map(|r| dx[r] * hdx[r]).sum();
+            let mut step = 1.0;
+            let mut trial = [0.0; N_MAX];
+            let accepted = loop {
+                for i in 0..n {
+                    trial[i] = x[i] + step * dx[i];
+                }
+                if let Some(args) = barrier_args(p, &trial[..n]) {
+                    let dj = step * gj_dx + 0.5 * step * step * dx_h_dx;
+                    let db: f64 = (0..p.k)
+                        .map(|i| {
+                            -(args[i].0 / args0[i].0).ln()
+                                - (args[i].1 / args0[i].1).ln()
+                                - (args[i].2 / args0[i].2).ln()
+                        })
+                        .sum();
+                    if t * dj + db <= -0.25 * step * decrement2 {
+                        break true;
+                    }
+                }
+                step *= 0.5;
+                if step < 1e-12 {
+                    break false;
+                }
+            };
+            let moved = step * dx[..n].iter().fold(0.0f64, |m, v| m.max(v.abs()));
+            if !accepted || moved < MIN_MOVE {
+                // No decrease, or a move below rounding: the centre is reached at the
+                // precision the active slacks allow.
+                break;
+            }
+            x = trial;
+        }
+        centred = Some(t);
+        if degree / t < GAP * p.w_f {
+            return Ok((x, steps));
+        }
+        t *= T_GROWTH;
+    }
+}

@@ -1,0 +1,72 @@
+//! The specialised solver against clarabel over 10,000 random stances: every grip force
+//! and the residual within 1e-4 body weights, and the same active limits (friction cone,
+//! grip strength) at every claw.
+
+mod common;
+
+use common::{Case, random_case};
+use rand::SeedableRng;
+use rand_pcg::Pcg64;
+use slothsim_load::{Stance, grip_states, solve, solve_reference};
+
+const CASES: usize = 10_000;
+/// Force agreement (body weights).
+const FORCE_TOL_BW: f32 = 1e-4;
+/// A limit is active when its slack is below this (body weights). 1e-6 splits one
+/// degenerate case of 10,000 (a cone limit active with a zero multiplier: slack −2e-9 here,
+/// 1.5e-6 in clarabel) below the forces' own agreement (3e-5 BW).
+const ACTIVE_TOL_BW: f64 = 1e-5;
+
+fn stance(c: &Case) -> Stance<'_> {
+    Stance {
+        com: c.com,
+        com_acc: c.com_acc,
+        ang_mom_rate: c.ang_mom_rate,
+        grips: &c.grips,
+    }
+}
+
+#[test]
+fn specialised_solver_matches_clarabel_on_10k_random_stances() {
+    let mut rng = Pcg64::seed_from_u64(22);
+    let mut counts = [0usize; 6];
+    let mut closed_form = 0usize;
+    let mut worst = 0f32;
+    for case_no in 0..CASES {
+        let case = random_case(&mut rng);
+        let st = stance(&case);
+        let p = &case.params;
+        let w = p.body_weight_n() as f32;
+        let ours = solve(p, &st).unwrap_or_else(|e| panic!("case {case_no}: {e}\n{case:?}"));
+        let reference =
+            solve_reference(p, &st).unwrap_or_else(|e| panic!("case {case_no}: {e}\n{case:?}"));
+        closed_form += usize::from(ours.iterations == 0);
+        for (a, b) in ours.grip_forces().iter().zip(reference.grip_forces()) {
+            let d = (*a - *b).length() / w;
+            worst = worst.max(d);
+            assert!(
+                d <= FORCE_TOL_BW,
+                "case {case_no}: force {a} vs clarabel {b} ({d} BW)\n{case:?}"
+            );
+        }
+        let dr = (ours.residual_bw(p) - reference.residual_bw(p)).abs();
+        assert!(
+            dr <= FORCE_TOL_BW,
+            "case {case_no}: residual differs by {dr} BW"
+        );
+        let sa = grip_states(p, &st, &ours, ACTIVE_TOL_BW);
+        let sb = grip_states(p, &st, &reference, ACTIVE_TOL_BW);
+        assert_eq!(
+            sa, sb,
+            "case {case_no}: active sets differ\n{case:?}\n{ours:?}\n{reference:?}"
+        );
+        for s in sa {
+            counts[s as usize] += 1;
+        }
+    }
+    eprintln!(
+        "{CASES} stances: grips free/cone/pull-limit/corner/push-limit/push-corner = {counts:?}, closed form {closed_form}, worst force difference {worst:.2e} BW"
+    );
+    // The comparison must exercise every kind of active set.
+    assert!(counts.iter().all(|&n| n > 100), "{counts:?}");
+}
