@@ -11,7 +11,7 @@ fn bench(c: &mut Criterion) {
     for lj in LimbJoint::all() {
         let (axis, limit) = lj.flexion(&mesh).expect("hinge");
         let j = lj.joint(&mesh);
-        locals[j] = locals[j] * glam::Quat::from_axis_angle(axis, 0.5 * limit);
+        locals[j] *= glam::Quat::from_axis_angle(axis, 0.5 * limit);
     }
     let posed = mesh.pose(&locals).expect("pose");
     let (mut out, mut lbs) = (Vec::new(), Vec::new());

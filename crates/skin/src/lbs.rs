@@ -80,8 +80,8 @@ impl SkinMesh {
                         if w[k] > 0.0 {
                             let d = dq[usize::from(j[k])];
                             let s = if d.real.dot(first) < 0.0 { -w[k] } else { w[k] };
-                            acc.real = acc.real + d.real * s;
-                            acc.dual = acc.dual + d.dual * s;
+                            acc.real += d.real * s;
+                            acc.dual += d.dual * s;
                         }
                     }
                     acc.transform(v)

@@ -13,7 +13,9 @@
 //! ring rigid (cross-section kept exactly) and every centreline segment its bind length
 //! (so volume ≈ area × length is kept, Pappus): ring r turns by α_r θ, α_r rising
 //! linearly in arclength from 0 (parent side) to 1 (child side) — a circular arc — and
-//! the small end mismatch with the child bone is spread linearly along the zone.
+//! the small end mismatch with the child bone is spread linearly along the zone; as the
+//! bent centreline is then shorter, inner rings widen by k √(L0/L), k solved (secant)
+//! so the limb's volume equals its bind volume: a volume-preserving sculpt.
 //! Only the cluster vertices' positions are stored (seed: "references are needed only
 //! for the cluster vertices"). [`reference_shapes`] computes them in code; the data
 //! ([`ReferenceShapes`]) is what [`crate::ClusterSkin`] consumes.
@@ -30,7 +32,7 @@ pub const ZONE_RINGS: usize = 3;
 /// Ring offsets from the joint ring that hold control clusters.
 pub const CLUSTER_RING_OFFSETS: [isize; 3] = [-2, 0, 2];
 /// Largest spacing of reference flexion angles (rad).
-pub const MAX_REFERENCE_STEP: f32 = 15.0 * std::f32::consts::PI / 180.0;
+pub const MAX_REFERENCE_STEP: f32 = 7.5 * std::f32::consts::PI / 180.0;
 
 /// A limb joint that gets control clusters: elbow/knee (element 2) or wrist/ankle (3).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -86,7 +88,7 @@ impl LimbJoint {
         // Turn between the bones before and after the joint, at a small positive angle.
         let turn = |q: Quat| {
             let mut locals = skel.rest_rotations();
-            locals[j] = locals[j] * q;
+            locals[j] *= q;
             let posed = mesh.pose(&locals).expect("finite rotation");
             let lj = mesh.rig.limb_joints(self.limb);
             let next = if self.element < 3 {
@@ -108,7 +110,7 @@ impl LimbJoint {
         let (axis, _) = self.flexion(mesh)?;
         let mut locals = mesh.rig.skeleton().rest_rotations();
         let j = self.joint(mesh);
-        locals[j] = locals[j] * Quat::from_axis_angle(axis, theta);
+        locals[j] *= Quat::from_axis_angle(axis, theta);
         Ok(locals)
     }
 }
@@ -172,6 +174,35 @@ pub fn find_clusters(mesh: &SkinMesh, lj: LimbJoint) -> Vec<[usize; 2]> {
 /// as `(vertex, position)`.
 pub fn sculpt(mesh: &SkinMesh, lj: LimbJoint, theta: f32) -> Result<Vec<(usize, Vec3)>, SkinError> {
     let posed = mesh.pose(&lj.flexed(mesh, theta)?)?;
+    let mut full = Vec::new();
+    mesh.lbs(&posed, &mut full);
+    let bind_volume = crate::measure::limb_volume(&mesh.positions, mesh, lj);
+    // Volume of the limb with the zone sculpted at extra widening `k`.
+    let volume = |k: f32| {
+        let mut p = full.clone();
+        for (v, x) in bent_zone(mesh, lj, &posed, k) {
+            p[v] = x;
+        }
+        crate::measure::limb_volume(&p, mesh, lj)
+    };
+    // Secant on k so the limb volume equals the bind volume (folds on the inside of
+    // the bend take a little volume the length rule alone does not restore).
+    let (mut k0, mut k1) = (1.0f32, 1.01f32);
+    let (mut v0, mut v1) = (volume(k0), volume(k1));
+    for _ in 0..6 {
+        if (v1 - v0).abs() < 1e-12 || (v1 - bind_volume).abs() < 1e-9 * bind_volume {
+            break;
+        }
+        let k2 = (k1 + (bind_volume - v1) * (k1 - k0) / (v1 - v0)).clamp(0.8, 1.5);
+        (k0, v0) = (k1, v1);
+        k1 = k2;
+        v1 = volume(k1);
+    }
+    Ok(bent_zone(mesh, lj, &posed, k1))
+}
+
+/// The bent zone (see the module doc) with inner rings widened by `k` √(L0 / L).
+fn bent_zone(mesh: &SkinMesh, lj: LimbJoint, posed: &crate::Posed, k: f32) -> Vec<(usize, Vec3)> {
     let joints = mesh.rig.limb_joints(lj.limb);
     let mp = posed.skin[joints.joints[lj.element - 1]];
     let mc = posed.skin[lj.joint(mesh)];
@@ -195,17 +226,37 @@ pub fn sculpt(mesh: &SkinMesh, lj: LimbJoint, theta: f32) -> Result<Vec<(usize, 
         let step = turn(mid) * (centres[i] - centres[i - 1]);
         bent.push(bent[i - 1] + step);
     }
-    let miss = bent[rings.len() - 1] - mc.transform_point3(centres[rings.len() - 1]);
+    let last = rings.len() - 1;
+    let miss = bent[last] - mc.transform_point3(centres[last]);
+    let bent: Vec<Vec3> = (0..rings.len())
+        .map(|i| bent[i] - miss * alpha[i])
+        .collect();
+    // Volume kept: the zone's end rings are fixed by the bones, so the bent centreline
+    // comes out shorter than the bind one; each inner ring is widened by √(L0 / L) (its
+    // two half-segments' bind / bent length) so area × length, the volume, is kept.
+    let half = |c: &[Vec3], i: usize| {
+        let before = if i > 0 { c[i].distance(c[i - 1]) } else { 0.0 };
+        let after = if i < last {
+            c[i].distance(c[i + 1])
+        } else {
+            0.0
+        };
+        0.5 * (before + after)
+    };
     let mut out = Vec::with_capacity(rings.len() * LIMB_SIDES);
     for (i, &r) in rings.iter().enumerate() {
-        let c = bent[i] - miss * alpha[i];
+        let widen = if i == 0 || i == last {
+            1.0
+        } else {
+            k * (half(&centres, i) / half(&bent, i).max(1e-9)).sqrt()
+        };
         let q = turn(alpha[i]);
         for k in 0..LIMB_SIDES {
             let v = SkinMesh::tube_vertex(lj.limb, r, k);
-            out.push((v, c + q * (mesh.positions[v] - centres[i])));
+            out.push((v, bent[i] + q * (mesh.positions[v] - centres[i]) * widen));
         }
     }
-    Ok(out)
+    out
 }
 
 /// Reference flexion angles of a joint: from −limit to +limit, at most
