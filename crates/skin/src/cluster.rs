@@ -225,7 +225,12 @@ impl ClusterSkin {
         mesh.lbs(posed, lbs);
         out.clear();
         out.extend_from_slice(lbs);
-        // Cluster vertices, formulas (2) and (3).
+        // Cluster vertices, formulas (2) and (3). R_j: rotation of W_j B_j⁻¹.
+        let rots: Vec<Quat> = posed
+            .skin
+            .iter()
+            .map(|m| m.to_scale_rotation_translation().1)
+            .collect();
         for jc in &self.joints {
             let x = rotation_vector(jc.rest.inverse() * posed.locals[jc.joint]);
             let phis: Vec<f32> = jc
@@ -242,9 +247,7 @@ impl ClusterSkin {
                         for (i, p) in phis.iter().enumerate() {
                             d += jc.omega[i][k][s] * *p;
                         }
-                        let (_, rot, _) = posed.skin[usize::from(mesh.joints[v][s])]
-                            .to_scale_rotation_translation();
-                        corr += rot * d * w;
+                        corr += rots[usize::from(mesh.joints[v][s])] * d * w;
                     }
                 }
                 out[v] += corr;
