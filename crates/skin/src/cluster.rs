@@ -256,19 +256,29 @@ impl ClusterSkin {
         // Free vertices, §3.3: cardinal spline along each line of the limb tube.
         for limb in Limb::ALL {
             for side in 0..LIMB_SIDES {
-                self.spline_line(limb, side, lbs, out);
+                spline_line(&self.control, self.tension, limb, side, lbs, out);
             }
         }
     }
+}
 
-    /// Interpolate the corrections of one longitudinal line's free vertices between
-    /// neighbouring control vertices p_{i−1}, p_{i+1} (with p_{i−2}, p_{i+2}, reflected
-    /// where the line ends), chord-length parameter t_{i+1} = t_i + |p_{i+1} − p_i|,
-    /// tangents m_k = (1 − q)(p_{k+1} − p_{k−1}) / (t_{k+1} − t_{k−1}) (formula 4),
-    /// cubic Hermite in between.
-    fn spline_line(&self, limb: Limb, side: usize, lbs: &[Vec3], out: &mut [Vec3]) {
+/// The spline pass over one longitudinal line of a limb tube (§3.3): interpolate the
+/// corrections of its free vertices between neighbouring control vertices p_{i−1},
+/// p_{i+1} (with p_{i−2}, p_{i+2}, reflected where the line ends), chord-length parameter
+/// t_{i+1} = t_i + |p_{i+1} − p_i|, tangents m_k = (1 − q)(p_{k+1} − p_{k−1}) /
+/// (t_{k+1} − t_{k−1}) (formula 4), cubic Hermite in between. `control` marks control
+/// vertices.
+pub(crate) fn spline_line(
+    control: &[bool],
+    tension: f32,
+    limb: Limb,
+    side: usize,
+    lbs: &[Vec3],
+    out: &mut [Vec3],
+) {
+    {
         let vid = |r: usize| SkinMesh::tube_vertex(limb, r, side);
-        let ctrl: Vec<usize> = (0..LIMB_RINGS).filter(|&r| self.control[vid(r)]).collect();
+        let ctrl: Vec<usize> = (0..LIMB_RINGS).filter(|&r| control[vid(r)]).collect();
         let line: Vec<Vec3> = (0..LIMB_RINGS).map(|r| out[vid(r)]).collect();
         let corr = |r: usize| line[r] - lbs[vid(r)];
         for w in 0..ctrl.len().saturating_sub(1) {
@@ -288,7 +298,7 @@ impl ClusterSkin {
                 Some(&n) => (corr(n), tb + line[n].distance(pb)),
                 None => (cb + (cb - ca), 2.0 * tb),
             };
-            let k = 1.0 - self.tension;
+            let k = 1.0 - tension;
             let ma = (cb - c_prev) * (k / (tb - t_prev).max(1e-9));
             let mb = (c_next - ca) * (k / t_next.max(1e-9));
             // Free vertex parameter: its share of the bind arclength from a to b.

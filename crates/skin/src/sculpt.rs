@@ -15,7 +15,8 @@
 //! linearly in arclength from 0 (parent side) to 1 (child side) — a circular arc — and
 //! the small end mismatch with the child bone is spread linearly along the zone; as the
 //! bent centreline is then shorter, inner rings widen by k √(L0/L), k solved (secant)
-//! so the limb's volume equals its bind volume: a volume-preserving sculpt.
+//! so the limb's volume — as the cluster method rebuilds it from these cluster
+//! positions, free rings by its spline — equals its bind volume: a volume-preserving sculpt.
 //! Only the cluster vertices' positions are stored (seed: "references are needed only
 //! for the cluster vertices"). [`reference_shapes`] computes them in code; the data
 //! ([`ReferenceShapes`]) is what [`crate::ClusterSkin`] consumes.
@@ -177,16 +178,34 @@ pub fn sculpt(mesh: &SkinMesh, lj: LimbJoint, theta: f32) -> Result<Vec<(usize, 
     let mut full = Vec::new();
     mesh.lbs(&posed, &mut full);
     let bind_volume = crate::measure::limb_volume(&mesh.positions, mesh, lj);
-    // Volume of the limb with the zone sculpted at extra widening `k`.
+    // Control vertices as the cluster method sees them: single-bone ones and the clusters.
+    let mut control: Vec<bool> = mesh.weights.iter().map(|w| w[0] >= 1.0 - 1e-6).collect();
+    for v in find_clusters(mesh, lj).into_iter().flatten() {
+        control[v] = true;
+    }
+    // Volume of the limb as the cluster method rebuilds it from this reference (cluster
+    // vertices sculpted at extra widening `k`, free vertices by the spline pass).
     let volume = |k: f32| {
         let mut p = full.clone();
         for (v, x) in bent_zone(mesh, lj, &posed, k) {
-            p[v] = x;
+            if control[v] {
+                p[v] = x;
+            }
+        }
+        for side in 0..LIMB_SIDES {
+            crate::cluster::spline_line(
+                &control,
+                crate::DEFAULT_TENSION,
+                lj.limb,
+                side,
+                &full,
+                &mut p,
+            );
         }
         crate::measure::limb_volume(&p, mesh, lj)
     };
-    // Secant on k so the limb volume equals the bind volume (folds on the inside of
-    // the bend take a little volume the length rule alone does not restore).
+    // Secant on k so that volume equals the bind volume (folds on the inside of the bend
+    // and the spline's overshoot change it a little beyond the length rule).
     let (mut k0, mut k1) = (1.0f32, 1.01f32);
     let (mut v0, mut v1) = (volume(k0), volume(k1));
     for _ in 0..6 {
