@@ -2,11 +2,11 @@
 //! every limb's elbow/knee and wrist/ankle flexed to half its limit.
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use slothsim_skin::{ClusterSkin, LimbJoint, SkinMesh, reference_shapes};
+use slothsim_skin::{ClusterSkin, LimbJoint, ReferenceShapes, SkinMesh};
 
 fn bench(c: &mut Criterion) {
     let mesh = SkinMesh::sloth().expect("asset");
-    let clusters = ClusterSkin::new(&mesh, &reference_shapes(&mesh).expect("refs")).expect("skin");
+    let clusters = ClusterSkin::new(&mesh, &ReferenceShapes::sloth().expect("refs")).expect("skin");
     let mut locals = mesh.rig.skeleton().rest_rotations();
     for lj in LimbJoint::all() {
         let (axis, limit) = lj.flexion(&mesh).expect("hinge");

@@ -1,11 +1,11 @@
 //! Print the flexion-sweep table of the crate README (markdown).
 
 use slothsim_skin::measure::sweep;
-use slothsim_skin::{ClusterSkin, LimbJoint, SkinMesh, reference_shapes};
+use slothsim_skin::{ClusterSkin, LimbJoint, ReferenceShapes, SkinMesh};
 
 fn main() -> Result<(), slothsim_skin::SkinError> {
     let mesh = SkinMesh::sloth()?;
-    let clusters = ClusterSkin::new(&mesh, &reference_shapes(&mesh)?)?;
+    let clusters = ClusterSkin::new(&mesh, &ReferenceShapes::sloth()?)?;
     println!(
         "| joint | flex ° | area LBS | area DQS | area clusters | vol LBS | vol DQS | vol clusters |"
     );

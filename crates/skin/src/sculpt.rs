@@ -117,7 +117,7 @@ impl LimbJoint {
 }
 
 /// Reference shapes of one joint's clusters (plain data).
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct JointReferences {
     /// Skeleton joint name.
     pub joint: String,
@@ -130,11 +130,30 @@ pub struct JointReferences {
     pub shapes: Vec<Vec<Vec3>>,
 }
 
-/// Reference shapes of every corrected joint.
-#[derive(Clone, Debug, PartialEq)]
+/// Reference shapes of every corrected joint (stored as `assets/sloth_skin_refs.json`).
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct ReferenceShapes {
     /// One entry per joint.
     pub joints: Vec<JointReferences>,
+}
+
+impl ReferenceShapes {
+    /// The stored reference shapes of the default sloth (`assets/sloth_skin_refs.json`,
+    /// written by `cargo run -p slothsim-tools --bin gen-skin-refs`).
+    pub fn sloth() -> Result<ReferenceShapes, SkinError> {
+        ReferenceShapes::from_json(include_bytes!("../../../assets/sloth_skin_refs.json"))
+    }
+
+    /// Parse stored reference shapes; a malformed file is an error naming the field.
+    pub fn from_json(bytes: &[u8]) -> Result<ReferenceShapes, SkinError> {
+        serde_json::from_slice(bytes)
+            .map_err(|e| SkinError::Field("reference shapes JSON", e.to_string()))
+    }
+
+    /// Serialise (compact JSON; deterministic).
+    pub fn to_json(&self) -> Vec<u8> {
+        serde_json::to_vec(self).expect("plain data serialises")
+    }
 }
 
 /// Cluster pairs of a joint (seed §3.1): opposite ring vertices on the cluster rings whose

@@ -146,3 +146,20 @@ fn bad_input_is_an_error_naming_the_joint_or_vertex() {
 
     assert!(SkinMesh::from_glb(b"not a glb").is_err());
 }
+
+#[test]
+fn stored_reference_shapes_match_the_offline_step() {
+    let mesh = SkinMesh::sloth().unwrap();
+    let stored = slothsim_skin::ReferenceShapes::sloth().expect("assets/sloth_skin_refs.json");
+    let fresh = reference_shapes(&mesh).unwrap();
+    assert_eq!(stored.joints.len(), fresh.joints.len());
+    for (a, b) in stored.joints.iter().zip(&fresh.joints) {
+        assert_eq!((&a.joint, &a.pairs), (&b.joint, &b.pairs));
+        for (sa, sb) in a.shapes.iter().flatten().zip(b.shapes.iter().flatten()) {
+            assert!(sa.distance(*sb) < 1e-5, "{}: stored shape drifted", a.joint);
+        }
+    }
+    ClusterSkin::new(&mesh, &stored).expect("stored references build a cluster skin");
+    let e = slothsim_skin::ReferenceShapes::from_json(b"{\"joints\": 3}").unwrap_err();
+    assert!(e.to_string().contains("reference shapes JSON"), "{e}");
+}

@@ -12,7 +12,7 @@ use anyhow::Context;
 use clap::Parser;
 use glam::{Vec2, Vec3};
 use slothsim_skin::measure::{Method, skin_flexed, sweep};
-use slothsim_skin::{ClusterSkin, LimbJoint, SkinMesh, reference_shapes};
+use slothsim_skin::{ClusterSkin, LimbJoint, ReferenceShapes, SkinMesh};
 use tiny_skia::{Color, FillRule, Paint, PathBuilder, Pixmap, Stroke, Transform};
 
 /// Plot the skinning flexion sweep (issue 25).
@@ -60,7 +60,7 @@ fn text(pm: &mut Pixmap, x: i32, y: i32, s: &str) {
 fn main() -> anyhow::Result<()> {
     let args = Args::parse();
     let mesh = SkinMesh::sloth()?;
-    let clusters = ClusterSkin::new(&mesh, &reference_shapes(&mesh)?)?;
+    let clusters = ClusterSkin::new(&mesh, &ReferenceShapes::sloth()?)?;
     let joints = LimbJoint::all();
     let elbow = joints[0];
     let (axis, limit) = elbow.flexion(&mesh)?;
