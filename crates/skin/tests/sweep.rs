@@ -163,3 +163,33 @@ fn stored_reference_shapes_match_the_offline_step() {
     let e = slothsim_skin::ReferenceShapes::from_json(b"{\"joints\": 3}").unwrap_err();
     assert!(e.to_string().contains("reference shapes JSON"), "{e}");
 }
+
+#[test]
+fn clusters_follow_a_rotated_body_and_several_flexed_joints() {
+    let (mesh, clusters) = setup();
+    let skel = mesh.rig.skeleton();
+    let mut locals = skel.rest_rotations();
+    for lj in LimbJoint::all() {
+        let (axis, limit) = lj.flexion(&mesh).unwrap();
+        let j = lj.joint(&mesh);
+        locals[j] *= Quat::from_axis_angle(axis, 0.8 * limit);
+    }
+    let (mut lbs, mut a, mut b) = (Vec::new(), Vec::new(), Vec::new());
+    clusters.skin(&mesh, &mesh.pose(&locals).unwrap(), &mut lbs, &mut a);
+    // The same pose with the whole body (the root joint) turned: the skin turns with it.
+    let turn = Quat::from_euler(glam::EulerRot::YXZ, 0.7, -0.4, 0.3);
+    let root = (0..skel.len()).find(|&i| skel.parent(i).is_none()).unwrap();
+    let root_t = skel.rest()[root].translation;
+    locals[root] = turn * locals[root];
+    clusters.skin(&mesh, &mesh.pose(&locals).unwrap(), &mut lbs, &mut b);
+    let err = a
+        .iter()
+        .zip(&b)
+        .map(|(p, q)| (root_t + turn * (*p - root_t)).distance(*q))
+        .fold(0.0f32, f32::max);
+    assert!(err < 1e-5, "rotated body: {err} m");
+    for lj in LimbJoint::all() {
+        let area = slothsim_skin::measure::min_area_ratio(&a, &mesh, lj);
+        assert!(area >= 0.9 && area.is_finite(), "{}: {area}", lj.label());
+    }
+}
