@@ -3,6 +3,9 @@
 //! `state_hash`; matrix shards merged equal the unsharded matrix; seed
 //! sweeps split and merge; parts of other builds or sweeps are refused.
 
+mod cli_common;
+
+use cli_common::ok;
 use std::path::Path;
 use std::process::{Command, Output};
 
@@ -19,17 +22,6 @@ fn slothsim(args: &[&str], env: &[(&str, &str)]) -> Output {
     }
     cmd.envs(env.iter().copied());
     cmd.output().expect("run slothsim")
-}
-
-fn ok(out: &Output) -> String {
-    assert!(
-        out.status.success(),
-        "exit {:?}\nstdout:\n{}\nstderr:\n{}",
-        out.status.code(),
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
-    );
-    String::from_utf8_lossy(&out.stdout).into_owned()
 }
 
 fn fails(out: &Output, needle: &str) {
