@@ -3,6 +3,7 @@
 //!
 //! Conventions: metres, radians, +Y up, right-handed (glTF axes). No ECS here.
 
+mod atomic;
 mod error;
 mod forest;
 mod gltf_io;
@@ -13,6 +14,7 @@ mod primitive;
 mod trace;
 pub mod treegen;
 
+pub use atomic::{temp_path, write_atomically};
 pub use error::{SceneError, TraceError};
 pub use forest::{ForestConfig, default_forest, generate_forest};
 pub use gltf_io::{
