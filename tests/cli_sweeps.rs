@@ -226,39 +226,34 @@ fn matrix_shards_merge_into_the_unsharded_matrix() {
         ),
         "given twice",
     );
-    let mut other = json(&parts[1]);
-    other["provenance"]["version"] = "9.9.9".into();
+    // Part 1 of another build, then of another config, in place of the real one.
     let other_path = tmp.path().join("other-part.json");
-    std::fs::write(&other_path, other.to_string()).unwrap();
-    fails(
-        &slothsim(
-            &[
-                "merge",
-                s(&parts[0]),
-                s(&other_path),
-                s(&parts[2]),
-                "--out",
-                s(&bad),
-            ],
-            &[],
-        ),
+    let merge_with_other = |field: &[&str], value: serde_json::Value, needle: &str| {
+        let mut other = json(&parts[1]);
+        let mut at = &mut other["provenance"];
+        for key in field {
+            at = &mut at[*key];
+        }
+        *at = value;
+        std::fs::write(&other_path, other.to_string()).unwrap();
+        let args = [
+            "merge",
+            s(&parts[0]),
+            s(&other_path),
+            s(&parts[2]),
+            "--out",
+            s(&bad),
+        ];
+        fails(&slothsim(&args, &[]), needle);
+    };
+    merge_with_other(
+        &["version"],
+        "9.9.9".into(),
         "other-part.json was written by slothsim 9.9.9",
     );
-    let mut other = json(&parts[1]);
-    other["provenance"]["config"]["max_step_m"] = 0.2.into();
-    std::fs::write(&other_path, other.to_string()).unwrap();
-    fails(
-        &slothsim(
-            &[
-                "merge",
-                s(&parts[0]),
-                s(&other_path),
-                s(&parts[2]),
-                "--out",
-                s(&bad),
-            ],
-            &[],
-        ),
+    merge_with_other(
+        &["config", "max_step_m"],
+        0.2.into(),
         "other-part.json ran another locomotion config",
     );
     assert!(!bad.join("matrix.json").exists());
