@@ -1,23 +1,10 @@
 //! `--record` / `--record-hz` on `slothsim run` and `scenario`: outputs,
 //! the state untouched, and bad input.
 
+mod cli_common;
+
+use cli_common::{ok, slothsim};
 use std::path::Path;
-use std::process::{Command, Output};
-
-fn slothsim(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_slothsim"))
-        .args(args)
-        .output()
-        .expect("runs")
-}
-
-fn ok(out: &Output) {
-    assert!(
-        out.status.success(),
-        "stderr: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-}
 
 fn run(dir: &Path, extra: &[&str]) -> serde_json::Value {
     let mut args = vec![

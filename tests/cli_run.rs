@@ -2,29 +2,14 @@
 //! counts (the compute pool is process-wide, so each count is its own
 //! process), checkpoint/resume equality, crowd judge measures, bad input.
 
-use std::path::Path;
-use std::process::{Command, Output};
+mod cli_common;
 
-fn slothsim(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_slothsim"))
-        .args(args)
-        .output()
-        .expect("run slothsim")
-}
+use cli_common::{ok, slothsim};
+use std::path::Path;
 
 fn stats(dir: &Path) -> serde_json::Value {
     let text = std::fs::read_to_string(dir.join("stats.json")).expect("stats.json");
     serde_json::from_str(&text).expect("valid json")
-}
-
-fn ok(out: &Output) {
-    assert!(
-        out.status.success(),
-        "exit {:?}\nstdout:\n{}\nstderr:\n{}",
-        out.status.code(),
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
-    );
 }
 
 /// A small crowd on a small forest: 60 sloths on 6 trees.

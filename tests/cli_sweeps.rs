@@ -3,6 +3,9 @@
 //! `state_hash`; matrix shards merged equal the unsharded matrix; seed
 //! sweeps split and merge; parts of other builds or sweeps are refused.
 
+mod cli_common;
+
+use cli_common::ok;
 use std::path::Path;
 use std::process::{Command, Output};
 
@@ -19,17 +22,6 @@ fn slothsim(args: &[&str], env: &[(&str, &str)]) -> Output {
     }
     cmd.envs(env.iter().copied());
     cmd.output().expect("run slothsim")
-}
-
-fn ok(out: &Output) -> String {
-    assert!(
-        out.status.success(),
-        "exit {:?}\nstdout:\n{}\nstderr:\n{}",
-        out.status.code(),
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
-    );
-    String::from_utf8_lossy(&out.stdout).into_owned()
 }
 
 fn fails(out: &Output, needle: &str) {
@@ -234,39 +226,34 @@ fn matrix_shards_merge_into_the_unsharded_matrix() {
         ),
         "given twice",
     );
-    let mut other = json(&parts[1]);
-    other["provenance"]["version"] = "9.9.9".into();
+    // Part 1 of another build, then of another config, in place of the real one.
     let other_path = tmp.path().join("other-part.json");
-    std::fs::write(&other_path, other.to_string()).unwrap();
-    fails(
-        &slothsim(
-            &[
-                "merge",
-                s(&parts[0]),
-                s(&other_path),
-                s(&parts[2]),
-                "--out",
-                s(&bad),
-            ],
-            &[],
-        ),
+    let merge_with_other = |field: &[&str], value: serde_json::Value, needle: &str| {
+        let mut other = json(&parts[1]);
+        let mut at = &mut other["provenance"];
+        for key in field {
+            at = &mut at[*key];
+        }
+        *at = value;
+        std::fs::write(&other_path, other.to_string()).unwrap();
+        let args = [
+            "merge",
+            s(&parts[0]),
+            s(&other_path),
+            s(&parts[2]),
+            "--out",
+            s(&bad),
+        ];
+        fails(&slothsim(&args, &[]), needle);
+    };
+    merge_with_other(
+        &["version"],
+        "9.9.9".into(),
         "other-part.json was written by slothsim 9.9.9",
     );
-    let mut other = json(&parts[1]);
-    other["provenance"]["config"]["max_step_m"] = 0.2.into();
-    std::fs::write(&other_path, other.to_string()).unwrap();
-    fails(
-        &slothsim(
-            &[
-                "merge",
-                s(&parts[0]),
-                s(&other_path),
-                s(&parts[2]),
-                "--out",
-                s(&bad),
-            ],
-            &[],
-        ),
+    merge_with_other(
+        &["config", "max_step_m"],
+        0.2.into(),
         "other-part.json ran another locomotion config",
     );
     assert!(!bad.join("matrix.json").exists());

@@ -2,27 +2,12 @@
 //! a short crowd run judged on the real surface, and `scene info`'s
 //! per-mesh and per-instance counts.
 
+mod cli_common;
+
+use cli_common::{ok, slothsim};
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
 
 use slothsim::scene::treegen::{TreeParams, generate_forest_glb};
-
-fn slothsim(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_slothsim"))
-        .args(args)
-        .output()
-        .expect("run slothsim")
-}
-
-fn ok(out: &Output) {
-    assert!(
-        out.status.success(),
-        "exit {:?}\nstdout:\n{}\nstderr:\n{}",
-        out.status.code(),
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
-    );
-}
 
 fn temp_dir(test: &str) -> PathBuf {
     let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("cli_trees_{test}"));

@@ -27,16 +27,7 @@ impl AtomicFile {
             path: path.to_path_buf(),
             source,
         };
-        let name = path.file_name().ok_or_else(|| {
-            io(std::io::Error::new(
-                std::io::ErrorKind::InvalidInput,
-                "not a file path",
-            ))
-        })?;
-        let mut tmp_name = std::ffi::OsString::from(".");
-        tmp_name.push(name);
-        tmp_name.push(format!(".tmp{}", std::process::id()));
-        let tmp = path.with_file_name(tmp_name);
+        let tmp = slothsim_scene::temp_path(path).map_err(io)?;
         let file = File::create(&tmp).map_err(io)?;
         Ok(Self {
             path: path.to_path_buf(),

@@ -473,14 +473,7 @@ pub(crate) fn ticks(lo: f64, hi: f64, step: f64) -> Vec<f64> {
     (first..=last).map(|i| i as f64 * step).collect()
 }
 
-/// Percentile (nearest rank, `q` in 0..=1) of already sorted finite values.
-pub(crate) fn percentile_sorted(sorted: &[f64], q: f64) -> Option<f64> {
-    if sorted.is_empty() {
-        return None;
-    }
-    let rank = (q.clamp(0.0, 1.0) * sorted.len() as f64).ceil() as usize;
-    Some(sorted[rank.clamp(1, sorted.len()) - 1])
-}
+pub(crate) use slothsim_scene::percentile_sorted;
 
 /// The height colour ramp (a cividis-like blue → grey → yellow; no red or green so trace
 /// and sloth colours stay distinct). `t` in 0..=1.

@@ -1,6 +1,5 @@
 //! Errors and the atomic PNG writer.
 
-use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use tiny_skia::Pixmap;
@@ -63,7 +62,7 @@ pub fn encode_png(pixmap: &Pixmap) -> Result<Vec<u8>, png::EncodingError> {
 }
 
 /// Writes `pixmap` as a PNG at `path`, atomically: the bytes go to a temporary file in
-/// the same folder (`.NAME.tmp-PID`), which is synced and then renamed over `path`, so a
+/// the same folder (`.NAME.tmpPID`), which is synced and then renamed over `path`, so a
 /// reader never sees a partial PNG under the final name. On error the temporary file is
 /// removed and the error names `path`.
 pub fn save_png(pixmap: &Pixmap, path: &Path) -> Result<(), PlotError> {
@@ -71,30 +70,8 @@ pub fn save_png(pixmap: &Pixmap, path: &Path) -> Result<(), PlotError> {
         path: path.to_path_buf(),
         message: e.to_string(),
     })?;
-    let io_err = |source| PlotError::Io {
+    slothsim_scene::write_atomically(path, &bytes).map_err(|source| PlotError::Io {
         path: path.to_path_buf(),
         source,
-    };
-    let name = path.file_name().ok_or_else(|| {
-        io_err(std::io::Error::new(
-            std::io::ErrorKind::InvalidInput,
-            "the path has no file name",
-        ))
-    })?;
-    let tmp = path.with_file_name(format!(
-        ".{}.tmp-{}",
-        name.to_string_lossy(),
-        std::process::id()
-    ));
-    let write = || -> std::io::Result<()> {
-        let mut f = std::fs::File::create(&tmp)?;
-        f.write_all(&bytes)?;
-        f.sync_all()?;
-        drop(f);
-        std::fs::rename(&tmp, path)
-    };
-    write().map_err(|e| {
-        let _ = std::fs::remove_file(&tmp);
-        io_err(e)
     })
 }

@@ -25,7 +25,7 @@
 //!
 //! The kernel is written once (`ccd_lanes.rs`) over a lane type `F` and its mask
 //! `M`, and included twice: four lanes in `glam::Vec4`, and eight in one AVX
-//! register ([`crate::simd8`], the same operations at 256 bits) where the CPU has
+//! register (`simd8`, the same operations at 256 bits) where the CPU has
 //! AVX2. Eight lanes cost about as much per sweep as four (the ik bench, warm 2 mm
 //! steps: 243 → 143 ns per limb), so the sim pairs sloths in its CcdSolve stage
 //! and stances in its step checks.
@@ -201,7 +201,7 @@ pub fn solve4_prepared(
 /// `solve(chains[i], roots[i], targets[i], &mut poses[i], &CcdParams { tolerance:
 /// tolerances[i], ..*params })` (`params.tolerance` is not used). A lane whose
 /// tolerance is invalid (see [`CcdParams::validate`]) is rejected with
-/// [`CcdStatus::InvalidParams`] and left untouched; the others are solved.
+/// [`CcdStatus::InvalidParams`](crate::CcdStatus::InvalidParams) and left untouched; the others are solved.
 pub fn solve4_prepared_tolerances(
     chains: &LimbChains4,
     roots: [RootTransform; 4],

@@ -3,6 +3,8 @@
 // (the lane count) and `sqrt`, once per lane width (`Vec4`: 4 lanes; `F8`: 8
 // lanes in one AVX register). Lane `i` is exactly the scalar solver on lane
 // `i`'s inputs, whatever the width: see the module docs of `ccd4`.
+//
+// Length: one `include!`d kernel (solve, resume, polish for N lanes) that must stay one unit: every line has a scalar twin in ccd.rs it matches bit for bit.
 
 use glam::{Quat, Vec3, Vec3A, Vec4};
 

@@ -127,26 +127,10 @@ pub fn write_scene(scene: &Scene, path: &Path) -> Result<(), SceneError> {
             });
         }
     };
-    let io_err = |source| SceneError::Io {
+    crate::write_atomically(path, &bytes).map_err(|source| SceneError::Io {
         path: path.to_path_buf(),
         source,
-    };
-    let file_name = path.file_name().ok_or_else(|| {
-        io_err(std::io::Error::new(
-            std::io::ErrorKind::InvalidInput,
-            "path has no file name",
-        ))
-    })?;
-    let mut tmp_name = std::ffi::OsString::from(".");
-    tmp_name.push(file_name);
-    tmp_name.push(format!(".{}.tmp", std::process::id()));
-    let tmp = path.with_file_name(tmp_name);
-    let result = std::fs::write(&tmp, &bytes).and_then(|()| std::fs::rename(&tmp, path));
-    if let Err(e) = result {
-        let _ = std::fs::remove_file(&tmp);
-        return Err(io_err(e));
-    }
-    Ok(())
+    })
 }
 
 /// Reads a `.glb` or `.gltf` file (external buffers resolved relative to it).

@@ -3,15 +3,18 @@
 //!
 //! Conventions: metres, radians, +Y up, right-handed (glTF axes). No ECS here.
 
+mod atomic;
 mod error;
 mod forest;
 mod gltf_io;
 mod model;
+mod percentile;
 mod presets;
 mod primitive;
 mod trace;
 pub mod treegen;
 
+pub use atomic::{temp_path, write_atomically};
 pub use error::{SceneError, TraceError};
 pub use forest::{ForestConfig, default_forest, generate_forest};
 pub use gltf_io::{
@@ -23,6 +26,7 @@ pub use model::{
     Bounds, Scene, Support, SupportId, SupportKind, TRUNK_TILT_DEG, TriMesh, closest_on_segment,
     tilt_of,
 };
+pub use percentile::percentile_sorted;
 pub use presets::{Goal, PRESET_BRANCH_RADIUS, PRESET_HEIGHT, Preset, PresetKind, StartHint};
 pub use trace::{
     BoxOverlap, BvhStats, LineTrace, SceneQuery, SphereSweep, TraceHit, TraceRequest, TraceResult,

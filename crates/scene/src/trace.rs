@@ -6,6 +6,8 @@
 //! static). [`SceneQuery`] is the borrowed view every caller traces through;
 //! it offers single queries, a batched API that runs many traces in parallel
 //! (rayon), and brute-force twins used as references by tests and baselines.
+//!
+//! Length: the three query kinds share the BVH traversal and the primitive intersectors; splitting them would scatter one traversal over files.
 
 use std::time::Duration;
 

@@ -1,5 +1,7 @@
 //! glTF import/export: round trips, validity of what we write, mesh fitting
 //! of foreign files, node transforms, and every bad-input case.
+//!
+//! Length: one test file for glTF import/export round trips and every bad-input case, sharing its fixtures.
 
 use std::path::{Path, PathBuf};
 

@@ -28,19 +28,5 @@ pub use world::{
     Traces, new_world, spawn_sloth,
 };
 
-/// Writes `bytes` to a temporary file next to `path`, then renames it into
-/// place, so a reader never sees a partial file under the final name.
-pub fn write_atomically(path: &std::path::Path, bytes: &[u8]) -> std::io::Result<()> {
-    let name = path
-        .file_name()
-        .ok_or_else(|| std::io::Error::other(format!("{} is not a file path", path.display())))?;
-    let mut tmp_name = std::ffi::OsString::from(".");
-    tmp_name.push(name);
-    tmp_name.push(format!(".tmp{}", std::process::id()));
-    let tmp = path.with_file_name(tmp_name);
-    let result = std::fs::write(&tmp, bytes).and_then(|()| std::fs::rename(&tmp, path));
-    if result.is_err() {
-        let _ = std::fs::remove_file(&tmp);
-    }
-    result
-}
+/// Writes a file through a temporary name (the scene crate's one helper).
+pub use slothsim_scene::write_atomically;

@@ -251,7 +251,7 @@ impl Percentiles {
         }
         let mut v = values.to_vec();
         v.sort_by(f64::total_cmp);
-        let at = |q: f64| v[((q * v.len() as f64).ceil() as usize).clamp(1, v.len()) - 1];
+        let at = |q: f64| slothsim_scene::percentile_sorted(&v, q).unwrap_or(0.0);
         Percentiles {
             p50: at(0.5),
             p95: at(0.95),
