@@ -47,6 +47,13 @@ pub struct LoadTrack {
     pub held_since: [f32; 4],
     /// Limbs that let go after waiting [`RELEASE_MAX_WAIT_S`].
     pub forced_releases: u32,
+    /// Per limb, the limits of its grip set active in the last frame's loads (bits
+    /// `slothsim_load::{PULL, PUSH, CONE}`): where the next frame's solve starts.
+    #[serde(default)]
+    pub active: [u8; 4],
+    /// Frames since the loads were last solved (see [`Sloth::grip_load`]'s `every`).
+    #[serde(default)]
+    pub skipped: u32,
 }
 
 impl Default for LoadTrack {
@@ -61,6 +68,8 @@ impl Default for LoadTrack {
             residual_bw: 0.0,
             held_since: [-1.0; 4],
             forced_releases: 0,
+            active: [0; 4],
+            skipped: 0,
         }
     }
 }
@@ -156,14 +165,20 @@ impl Sloth {
     }
 
     /// Loads with the holding limbs except `except` (a limb index, or 4 for none),
-    /// from the centre of mass and acceleration last recorded by [`Sloth::grip_load`].
-    fn loads_without(&self, w: &LocoView<'_>, except: usize) -> Result<LimbLoads, LoadError> {
+    /// from the centre of mass and acceleration last recorded by [`Sloth::grip_load`],
+    /// with the active limits per limb (the solve starts from last frame's).
+    fn loads_without(
+        &self,
+        w: &LocoView<'_>,
+        except: usize,
+    ) -> Result<(LimbLoads, [u8; 4]), LoadError> {
         let params = load_params(w.cfg);
         let mut grips = [LoadGrip {
             point: Vec3::ZERO,
             normal: Vec3::Y,
         }; 4];
         let mut limb_of = [0usize; 4];
+        let mut hint = [0u8; 4];
         let mut k = 0;
         for (li, l) in self.limbs.iter().enumerate() {
             if li != except && l.phase != LimbPhase::Swinging {
@@ -172,10 +187,14 @@ impl Sloth {
                     normal: l.grip.normal,
                 };
                 limb_of[k] = li;
+                hint[k] = self.load.active[li];
                 k += 1;
             }
         }
-        let com = if self.load.samples > 0 {
+        // The stage records this frame's centre of mass before it solves; a release
+        // check (later in the same tick) may come between two samples, so it takes the
+        // body as it is now.
+        let com = if except == 4 && self.load.samples > 0 {
             self.load.com
         } else {
             self.centre_of_mass(w)
@@ -186,7 +205,7 @@ impl Sloth {
             ang_mom_rate: Vec3::ZERO,
             grips: &grips[..k],
         };
-        let solved = slothsim_load::solve(&params, &stance)?;
+        let solved = slothsim_load::solve_from(&params, &stance, &hint)?;
         let mut out = LimbLoads {
             residual_force: solved.residual_force,
             residual_torque: solved.residual_torque,
@@ -195,28 +214,41 @@ impl Sloth {
             ok: true,
             ..LimbLoads::default()
         };
+        let mut active = [0u8; 4];
         for (i, f) in solved.grip_forces().iter().enumerate() {
             out.force[limb_of[i]] = *f;
+            active[limb_of[i]] = solved.active[i];
         }
-        Ok(out)
+        Ok((out, active))
     }
 
-    /// The GripLoad stage's kernel: record this frame's centre of mass, then the forces
-    /// every holding claw carries and the residual. A solver failure is counted
+    /// The GripLoad stage's kernel, run every `every`-th frame (sloths staggered by id;
+    /// `None` in the frames between): record the centre of mass, then the forces every
+    /// holding claw carries and the residual. A solver failure is counted
     /// (`load.failures`) and returns loads with `ok = false`, never NaN.
-    pub fn grip_load(&mut self, w: &LocoView<'_>, dt: f32) -> LimbLoads {
+    pub fn grip_load(&mut self, w: &LocoView<'_>, dt: f32, every: u32) -> Option<LimbLoads> {
+        let every = every.max(1);
+        if self.load.samples == 0 && self.load.skipped == 0 {
+            self.load.skipped = self.id % every;
+        }
+        self.load.skipped += 1;
+        if self.load.skipped < every {
+            return None;
+        }
+        self.load.skipped = 0;
         let com = self.centre_of_mass(w);
-        self.load.record(com, dt);
-        match self.loads_without(w, 4) {
-            Ok(l) => {
+        self.load.record(com, dt * every as f32);
+        Some(match self.loads_without(w, 4) {
+            Ok((l, active)) => {
                 self.load.residual_bw = l.residual_bw;
+                self.load.active = active;
                 l
             }
             Err(_) => {
                 self.load.failures += 1;
                 LimbLoads::default()
             }
-        }
+        })
     }
 
     /// Release rule: may limb `li` let go? Only if the other holding grips carry the body
@@ -229,7 +261,7 @@ impl Sloth {
         let allowed = self.transfer.is_some()
             || self.hang_trunk.is_some()
             || match self.loads_without(w, li) {
-                Ok(l) => l.residual_bw <= w.cfg.release_residual_bw,
+                Ok((l, _)) => l.residual_bw <= w.cfg.release_residual_bw,
                 Err(_) => {
                     self.load.failures += 1;
                     true

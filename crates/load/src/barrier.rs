@@ -7,12 +7,14 @@
 // Dense index arithmetic on ≤ 12×12 matrices reads best as index loops.
 #![allow(clippy::needless_range_loop)]
 
+use crate::active::{ActiveSet, CONE, PULL, PUSH, cone_active_set, start_set};
+use crate::closed::closed_form;
 use crate::model::{MAX_GRIPS, Problem, slacks_scaled};
-use crate::{GripLoads, LoadError, LoadParams, Stance};
+use crate::{GripLoads, LoadError, LoadParams, SolveMethod, Stance};
 
-const N_MAX: usize = 3 * MAX_GRIPS;
-type Mat = [[f64; N_MAX]; N_MAX];
-type VecN = [f64; N_MAX];
+pub(crate) const N_MAX: usize = 3 * MAX_GRIPS;
+pub(crate) type Mat = [[f64; N_MAX]; N_MAX];
+pub(crate) type VecN = [f64; N_MAX];
 
 /// Duality-gap bound at which the barrier stops, relative to `w_force`: the force error
 /// is then ≤ √(gap / w_force) ≈ 3e-5 BW (the objective is w_force-strongly convex; on the
@@ -33,13 +35,32 @@ const MAX_NEWTON: u32 = 300;
 /// Grip loads by the specialised solver. Errors: invalid parameters or input (named),
 /// or a solver failure (never a panic, never NaN).
 pub fn solve(params: &LoadParams, stance: &Stance) -> Result<GripLoads, LoadError> {
+    solve_from(params, stance, &[0; MAX_GRIPS])
+}
+
+/// [`solve`], starting a stance whose friction cones bind from the active set `hint`
+/// (per grip, in the order of [`Stance::grips`]: usually the last frame's
+/// [`GripLoads::active`]). The answer is the same optimum (the active set is only where
+/// the search starts; it is accepted by the KKT conditions of the whole problem), found
+/// in fewer Newton steps when the hint is right.
+pub fn solve_from(
+    params: &LoadParams,
+    stance: &Stance,
+    hint: &ActiveSet,
+) -> Result<GripLoads, LoadError> {
+    if let Some(out) = closed_form(params, stance) {
+        return Ok(out);
+    }
     let p = Problem::new(params, stance)?;
-    let (x, iters) = solve_problem(&p)?;
-    p.loads(&x[..p.n()], iters)
+    let (x, iters, method, active) = solve_problem(&p, hint)?;
+    let mut out = p.loads(&x[..p.n()], iters)?;
+    out.method = method;
+    out.active = active;
+    Ok(out)
 }
 
 /// Hessian 2(w_r AᵀA + w_f I) and linear term 2 w_r Aᵀb of the objective.
-fn quadratic(p: &Problem) -> (Mat, VecN) {
+pub(crate) fn quadratic(p: &Problem) -> (Mat, VecN) {
     let n = p.n();
     let mut h = [[0.0; N_MAX]; N_MAX];
     let mut g = [0.0; N_MAX];
@@ -56,59 +77,77 @@ fn quadratic(p: &Problem) -> (Mat, VecN) {
 }
 
 /// Solve `M y = rhs` for the leading n×n block of a symmetric positive definite `M`
-/// (overwritten) by Cholesky with symmetric diagonal (Jacobi) scaling, which keeps the
+/// by Cholesky with symmetric diagonal (Jacobi) scaling, which keeps the
 /// barrier's badly scaled Newton systems factorable; `None` if not positive definite.
-fn cholesky_solve(m: &mut Mat, rhs: &VecN, n: usize) -> Option<VecN> {
-    let mut scale = [1.0; N_MAX];
-    for i in 0..n {
-        if m[i][i].is_nan() || m[i][i] <= 0.0 || m[i][i].is_infinite() {
-            return None;
-        }
-        scale[i] = 1.0 / m[i][i].sqrt();
-    }
-    for i in 0..n {
-        for j in 0..n {
-            m[i][j] *= scale[i] * scale[j];
-        }
-    }
-    let rhs: VecN = std::array::from_fn(|i| rhs[i] * scale[i]);
-    let y = cholesky_unscaled(m, &rhs, n)?;
-    Some(std::array::from_fn(|i| y[i] * scale[i]))
+pub(crate) fn cholesky_solve(m: &Mat, rhs: &VecN, n: usize) -> Option<VecN> {
+    Some(Cholesky::factor(m, n)?.solve(rhs))
 }
 
-fn cholesky_unscaled(m: &mut Mat, rhs: &VecN, n: usize) -> Option<VecN> {
-    for j in 0..n {
-        let mut d = m[j][j];
-        for k in 0..j {
-            d -= m[j][k] * m[j][k];
-        }
-        if d.is_nan() || d <= 0.0 || d.is_infinite() {
-            return None;
-        }
-        let d = d.sqrt();
-        m[j][j] = d;
-        for i in j + 1..n {
-            let mut s = m[i][j];
-            for k in 0..j {
-                s -= m[i][k] * m[j][k];
+/// A Jacobi-scaled Cholesky factor of the leading n×n block, for several right-hand sides.
+pub(crate) struct Cholesky {
+    l: Mat,
+    scale: VecN,
+    n: usize,
+}
+
+impl Cholesky {
+    /// Factor the leading n×n block of symmetric `m`; `None` if not positive definite.
+    pub(crate) fn factor(m: &Mat, n: usize) -> Option<Cholesky> {
+        let mut scale = [1.0; N_MAX];
+        for i in 0..n {
+            if m[i][i].is_nan() || m[i][i] <= 0.0 || m[i][i].is_infinite() {
+                return None;
             }
-            m[i][j] = s / d;
+            scale[i] = 1.0 / m[i][i].sqrt();
         }
-    }
-    let mut y = *rhs;
-    for i in 0..n {
-        for k in 0..i {
-            y[i] -= m[i][k] * y[k];
+        let mut l = [[0.0; N_MAX]; N_MAX];
+        for i in 0..n {
+            for j in 0..=i {
+                l[i][j] = m[i][j] * scale[i] * scale[j];
+            }
         }
-        y[i] /= m[i][i];
-    }
-    for i in (0..n).rev() {
-        for k in i + 1..n {
-            y[i] -= m[k][i] * y[k];
+        for j in 0..n {
+            let mut d = l[j][j];
+            for k in 0..j {
+                d -= l[j][k] * l[j][k];
+            }
+            if d.is_nan() || d <= 0.0 || d.is_infinite() {
+                return None;
+            }
+            let d = d.sqrt();
+            l[j][j] = d;
+            for i in j + 1..n {
+                let mut s = l[i][j];
+                for k in 0..j {
+                    s -= l[i][k] * l[j][k];
+                }
+                l[i][j] = s / d;
+            }
         }
-        y[i] /= m[i][i];
+        Some(Cholesky { l, scale, n })
     }
-    Some(y)
+
+    /// `M⁻¹ rhs`.
+    pub(crate) fn solve(&self, rhs: &VecN) -> VecN {
+        let (l, n) = (&self.l, self.n);
+        let mut y: VecN = std::array::from_fn(|i| rhs[i] * self.scale[i]);
+        for i in 0..n {
+            for k in 0..i {
+                y[i] -= l[i][k] * y[k];
+            }
+            y[i] /= l[i][i];
+        }
+        for i in (0..n).rev() {
+            for k in i + 1..n {
+                y[i] -= l[k][i] * y[k];
+            }
+            y[i] /= l[i][i];
+        }
+        for i in 0..n {
+            y[i] *= self.scale[i];
+        }
+        y
+    }
 }
 
 /// Per-grip barrier arguments (pull slack u, µ²(s_n+2G)² − |t|² = v); `None` outside the
@@ -168,10 +207,11 @@ fn strictly_feasible(p: &Problem, x: &[f64]) -> bool {
 }
 
 /// The optimum with only the pull and push limits (linear in the force) by a primal
-/// active-set method; it is the answer when every friction cone holds there strictly
-/// (adding constraints that hold at the relaxed optimum does not move it). `None` when a
-/// cone is violated or the method does not settle: the barrier then solves the problem.
-fn linear_active_set(p: &Problem, hq: &Mat, gq: &VecN) -> Option<VecN> {
+/// active-set method, with its working set (per grip: `Some(0)` pull, `Some(1)` push).
+/// It is the answer when every friction cone holds there strictly (adding constraints
+/// that hold at the relaxed optimum does not move it); otherwise it starts the cone
+/// active set. `None` when the method does not settle.
+fn linear_active_set(p: &Problem, hq: &Mat, gq: &VecN) -> Option<(VecN, Working)> {
     let n = p.n();
     // Constraint j of grip i: a·x ≥ b with a = ±n_i on the grip's block;
     // 0: pull (n·x ≥ −G), 1: push (−n·x ≥ −P). At most one per grip can bind.
@@ -183,7 +223,8 @@ fn linear_active_set(p: &Problem, hq: &Mat, gq: &VecN) -> Option<VecN> {
         }
         (a, if kind == 0 { -p.grip } else { -p.push })
     };
-    let solve_h = |rhs: &VecN| cholesky_solve(&mut hq.clone(), rhs, n);
+    let h_chol = Cholesky::factor(hq, n)?;
+    let solve_h = |rhs: &VecN| Some(h_chol.solve(rhs));
     let hinv_g = solve_h(gq)?;
     let mut working: [Option<usize>; MAX_GRIPS] = [None; MAX_GRIPS];
     for _ in 0..12 {
@@ -206,7 +247,7 @@ fn linear_active_set(p: &Problem, hq: &Mat, gq: &VecN) -> Option<VecN> {
             r[j] = bj - (0..n).map(|c| aj[c] * hinv_g[c]).sum::<f64>();
         }
         let mu = if m > 0 {
-            cholesky_solve(&mut s, &r, m)?
+            cholesky_solve(&s, &r, m)?
         } else {
             [0.0; N_MAX]
         };
@@ -240,33 +281,99 @@ fn linear_active_set(p: &Problem, hq: &Mat, gq: &VecN) -> Option<VecN> {
             working[i] = Some(kind);
             continue;
         }
-        // Linear limits hold with valid multipliers: the answer if every cone holds.
-        let cones_hold = (0..p.k).all(|i| {
-            let (_, _, c) = slacks_scaled(p.mu, p.grip, p.push, p.normal[i], Problem::force(&x, i));
-            c > 0.0
-        });
-        return cones_hold.then_some(x);
+        // Linear limits hold with valid multipliers.
+        return Some((x, working));
     }
     None
 }
 
-/// Solve the scaled problem; returns the forces (BW) and the Newton steps taken.
-pub(crate) fn solve_problem(p: &Problem) -> Result<(VecN, u32), LoadError> {
+/// Per grip, the linear limit in a working set: `Some(0)` pull, `Some(1)` push.
+pub(crate) type Working = [Option<usize>; MAX_GRIPS];
+
+fn cones_hold(p: &Problem, x: &VecN) -> bool {
+    (0..p.k).all(|i| {
+        let (_, _, c) = slacks_scaled(p.mu, p.grip, p.push, p.normal[i], Problem::force(x, i));
+        c > 0.0
+    })
+}
+
+/// The unconstrained optimum of `w_r |b − A x|² + w_f |x|²` through the 6×6 wrench
+/// space instead of the 12×12 force space: stationarity gives `x = ρ Aᵀ r` with the
+/// residual `r = b − A x`, hence `(I + ρ A Aᵀ) r = b` (ρ = w_r / w_f).
+fn unconstrained(p: &Problem) -> Option<VecN> {
     let n = p.n();
-    let (hq, gq) = quadratic(p);
+    let rho = p.w_r / p.w_f;
+    let mut m = [[0.0; N_MAX]; N_MAX];
+    for r in 0..6 {
+        for s in r..6 {
+            let dot: f64 = (0..n).map(|c| p.a[r][c] * p.a[s][c]).sum();
+            m[r][s] = rho * dot + if r == s { 1.0 } else { 0.0 };
+            m[s][r] = m[r][s];
+        }
+    }
+    let mut b = [0.0; N_MAX];
+    b[..6].copy_from_slice(&p.b);
+    let res = cholesky_solve(&m, &b, 6)?;
+    let mut x = [0.0; N_MAX];
+    for c in 0..n {
+        x[c] = rho * (0..6).map(|r| p.a[r][c] * res[r]).sum::<f64>();
+    }
+    Some(x)
+}
+
+/// Solve the scaled problem; returns the forces (BW) and the Newton steps taken.
+pub(crate) fn solve_problem(
+    p: &Problem,
+    hint: &ActiveSet,
+) -> Result<(VecN, u32, SolveMethod, ActiveSet), LoadError> {
+    let n = p.n();
+    let none = [0; MAX_GRIPS];
     if n == 0 {
-        return Ok(([0.0; N_MAX], 0));
+        return Ok(([0.0; N_MAX], 0, SolveMethod::ClosedForm, none));
     }
     // Unconstrained optimum: if it lies strictly inside every grip set it is the answer.
-    let mut m = hq;
-    let x0 = cholesky_solve(&mut m, &gq, n)
+    let x0 = unconstrained(p)
         .ok_or_else(|| LoadError::SolverFailed("objective not positive definite".into()))?;
     if strictly_feasible(p, &x0[..n]) {
-        return Ok((x0, 0));
+        return Ok((x0, 0, SolveMethod::ClosedForm, none));
     }
-    if let Some(x) = linear_active_set(p, &hq, &gq) {
-        return Ok((x, 0));
+    let (hq, gq) = quadratic(p);
+    // A hint with a cone in it: the cone active set from there.
+    if hint[..p.k].iter().any(|&b| b & CONE != 0)
+        && let Some((x, steps, set)) = cone_active_set(p, &hq, &gq, &x0, hint)
+    {
+        return Ok((x, steps, SolveMethod::ConeActiveSet, set));
     }
+    let linear = linear_active_set(p, &hq, &gq);
+    if let Some((x, w)) = linear.filter(|(x, _)| cones_hold(p, x)) {
+        let set = std::array::from_fn(|i| match w[i] {
+            Some(0) => PULL,
+            Some(_) => PUSH,
+            None => 0,
+        });
+        return Ok((x, 0, SolveMethod::LinearActiveSet, set));
+    }
+    if let Some((x, steps, set)) =
+        linear.and_then(|(x, w)| cone_active_set(p, &hq, &gq, &x, &start_set(p, &x, &w)))
+    {
+        return Ok((x, steps, SolveMethod::ConeActiveSet, set));
+    }
+    let (x, steps) = barrier(p, &hq, &gq, &x0)?;
+    let set = std::array::from_fn(|i| {
+        if i >= p.k {
+            return 0;
+        }
+        let (u, q, c) = slacks_scaled(p.mu, p.grip, p.push, p.normal[i], Problem::force(&x, i));
+        let tol = 1e-6;
+        (u8::from(u <= tol) * PULL) | (u8::from(q <= tol) * PUSH) | (u8::from(c <= tol) * CONE)
+    });
+    Ok((x, steps, SolveMethod::Barrier, set))
+}
+
+/// The log-barrier path from a strictly feasible start; returns the forces (BW) and the
+/// Newton steps taken.
+fn barrier(p: &Problem, hq: &Mat, gq: &VecN, x0: &VecN) -> Result<(VecN, u32), LoadError> {
+    let n = p.n();
     // Barrier path. Start on the segment from 0 (strictly inside: pull slack G, cone
     // slack 2µG) toward the unconstrained optimum, 90 % of the way to the first limit;
     // t₀ = degree / (J(start) − J(unconstrained)), the duality gap the start is worth.
@@ -310,7 +417,7 @@ pub(crate) fn solve_problem(p: &Problem) -> Result<(VecN, u32), LoadError> {
             }
             add_barrier_derivatives(p, &x[..n], &mut g, &mut h);
             let neg_g = g.map(|v| -v);
-            let step_dir = cholesky_solve(&mut h, &neg_g, n).and_then(|dx| {
+            let step_dir = cholesky_solve(&h, &neg_g, n).and_then(|dx| {
                 let decrement2: f64 = (0..n).map(|i| -g[i] * dx[i]).sum();
                 decrement2.is_finite().then_some((dx, decrement2))
             });

@@ -13,17 +13,20 @@
 //! specialised one is proven against (tests/vs_clarabel.rs). The crate README states the
 //! formulation, the cone and its reasoning, and the measured cost.
 
+mod active;
 mod barrier;
+mod closed;
 mod error;
 mod model;
 mod params;
 mod reference;
 
-pub use barrier::solve;
+pub use active::{ActiveSet, CONE, PULL, PUSH};
+pub use barrier::{solve, solve_from};
 pub use error::LoadError;
 pub use model::{
-    Grip, GripLoads, GripState, MAX_GRIPS, MassPoint, Stance, centre_of_mass, com_acceleration,
-    grip_slacks, grip_states,
+    Grip, GripLoads, GripState, MAX_GRIPS, MassPoint, SolveMethod, Stance, centre_of_mass,
+    com_acceleration, grip_slacks, grip_states,
 };
 pub use params::LoadParams;
 pub use reference::solve_reference;

@@ -76,8 +76,29 @@ pub struct GripLoads {
     pub residual_force: Vec3,
     /// Residual torque on the body about the centre of mass (N·m).
     pub residual_torque: Vec3,
-    /// Solver iterations (0: closed form).
+    /// Newton steps taken (0: closed form or linear active set).
     pub iterations: u32,
+    /// Which of the specialised solver's stages found the answer.
+    pub method: SolveMethod,
+    /// Active limits per grip (bits [`crate::PULL`], [`crate::PUSH`], [`crate::CONE`]):
+    /// a hint for the next frame's [`crate::solve_from`].
+    pub active: crate::ActiveSet,
+}
+
+/// Which stage of [`crate::solve`] found the answer (clarabel's answers say `Reference`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum SolveMethod {
+    /// The unconstrained optimum lies inside every grip set.
+    #[default]
+    ClosedForm,
+    /// Only pull/push limits bind (linear active set).
+    LinearActiveSet,
+    /// A friction cone binds: active set with Newton–KKT steps.
+    ConeActiveSet,
+    /// The log-barrier method (when the active set does not settle).
+    Barrier,
+    /// clarabel ([`crate::solve_reference`]).
+    Reference,
 }
 
 impl GripLoads {

@@ -85,5 +85,7 @@ pub fn solve_reference(params: &LoadParams, stance: &Stance) -> Result<GripLoads
             sol.status
         )));
     }
-    p.loads(&sol.x[..n], sol.iterations)
+    let mut out = p.loads(&sol.x[..n], sol.iterations)?;
+    out.method = crate::SolveMethod::Reference;
+    Ok(out)
 }

@@ -7,7 +7,7 @@ mod common;
 use common::{Case, random_case};
 use rand::SeedableRng;
 use rand_pcg::Pcg64;
-use slothsim_load::{Stance, grip_states, solve, solve_reference};
+use slothsim_load::{MAX_GRIPS, Stance, grip_states, solve, solve_from, solve_reference};
 
 const CASES: usize = 10_000;
 /// Force agreement (body weights).
@@ -30,7 +30,7 @@ fn stance(c: &Case) -> Stance<'_> {
 fn specialised_solver_matches_clarabel_on_10k_random_stances() {
     let mut rng = Pcg64::seed_from_u64(22);
     let mut counts = [0usize; 6];
-    let mut closed_form = 0usize;
+    let mut methods = [0usize; 4];
     let mut worst = 0f32;
     for case_no in 0..CASES {
         let case = random_case(&mut rng);
@@ -40,7 +40,7 @@ fn specialised_solver_matches_clarabel_on_10k_random_stances() {
         let ours = solve(p, &st).unwrap_or_else(|e| panic!("case {case_no}: {e}\n{case:?}"));
         let reference =
             solve_reference(p, &st).unwrap_or_else(|e| panic!("case {case_no}: {e}\n{case:?}"));
-        closed_form += usize::from(ours.iterations == 0);
+        methods[ours.method as usize] += 1;
         for (a, b) in ours.grip_forces().iter().zip(reference.grip_forces()) {
             let d = (*a - *b).length() / w;
             worst = worst.max(d);
@@ -48,6 +48,21 @@ fn specialised_solver_matches_clarabel_on_10k_random_stances() {
                 d <= FORCE_TOL_BW,
                 "case {case_no}: force {a} vs clarabel {b} ({d} BW)\n{case:?}"
             );
+        }
+        // Started from any active set (its own: a right hint; a random one: a wrong
+        // hint, as after a frame's change of stance), the solve ends at the same optimum.
+        let wrong: [u8; MAX_GRIPS] = std::array::from_fn(|i| ((case_no * 7 + i * 3) % 8) as u8);
+        for hint in [ours.active, wrong] {
+            let again = solve_from(p, &st, &hint)
+                .unwrap_or_else(|e| panic!("case {case_no} from {hint:?}: {e}\n{case:?}"));
+            for (a, b) in again.grip_forces().iter().zip(reference.grip_forces()) {
+                let d = (*a - *b).length() / w;
+                worst = worst.max(d);
+                assert!(
+                    d <= FORCE_TOL_BW,
+                    "case {case_no} from {hint:?}: force {a} vs clarabel {b} ({d} BW)"
+                );
+            }
         }
         let dr = (ours.residual_bw(p) - reference.residual_bw(p)).abs();
         assert!(
@@ -65,8 +80,10 @@ fn specialised_solver_matches_clarabel_on_10k_random_stances() {
         }
     }
     eprintln!(
-        "{CASES} stances: grips free/cone/pull-limit/corner/push-limit/push-corner = {counts:?}, closed form {closed_form}, worst force difference {worst:.2e} BW"
+        "{CASES} stances: grips free/cone/pull-limit/corner/push-limit/push-corner = {counts:?}, solved by closed form/linear active set/cone active set/barrier = {methods:?}, worst force difference {worst:.2e} BW"
     );
     // The comparison must exercise every kind of active set.
     assert!(counts.iter().all(|&n| n > 100), "{counts:?}");
+    // …and every stage of the solver.
+    assert!(methods.iter().all(|&n| n > 100), "{methods:?}");
 }

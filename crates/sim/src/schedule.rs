@@ -19,8 +19,8 @@ use bevy_tasks::{ComputeTaskPool, TaskPoolBuilder};
 use slothsim_gait::Sloth;
 
 use crate::world::{
-    BodyAverageMemo, CcdMemo, CrowdNeighbours, CrowdPoints, GripLoad, Locomotion, SimClock,
-    SlothId, SlothState, Traces, crowd_points,
+    BodyAverageMemo, CcdMemo, CrowdNeighbours, CrowdPoints, GripLoad, GripLoadEvery, Locomotion,
+    SimClock, SlothId, SlothState, Traces, crowd_points,
 };
 
 /// The stages of one tick, in order.
@@ -165,15 +165,21 @@ fn ccd_stage(
 fn grip_load_stage(
     loco: Res<Locomotion>,
     clock: Res<SimClock>,
+    every: Option<Res<GripLoadEvery>>,
     mut q: Query<(&mut SlothState, &mut GripLoad)>,
     mut timings: ResMut<StageTimings>,
 ) {
     let t = Instant::now();
     let w = loco.view();
     let dt = clock.dt;
+    let every = every.map_or(1, |e| e.0);
     q.par_iter_mut()
         .batching_strategy(BATCHING)
-        .for_each(|(mut s, mut g)| g.0 = s.0.grip_load(&w, dt));
+        .for_each(|(mut s, mut g)| {
+            if let Some(loads) = s.0.grip_load(&w, dt, every) {
+                g.0 = loads;
+            }
+        });
     timings.last[4] = ms(t);
 }
 

@@ -29,6 +29,16 @@ pub struct CcdMemo(pub SolveMemo);
 #[derive(Component, Clone, Copy, Debug, Default)]
 pub struct BodyAverageMemo(pub BodyMemo);
 
+/// How often the GripLoad stage solves each sloth's loads: every this many frames,
+/// sloths staggered by id (a crowd: [`CROWD_LOAD_EVERY`]; a lone scenario sloth: 1).
+#[derive(Resource, Clone, Copy, Debug)]
+pub struct GripLoadEvery(pub u32);
+
+/// Crowds solve each sloth's grip loads every 4th frame (15 Hz at 60 Hz; the gait's
+/// loads change over a stride, ~1 s): the stage then costs a quarter. Release decisions
+/// solve when they are asked, with the body as it is then.
+pub const CROWD_LOAD_EVERY: u32 = 4;
+
 /// A sloth's grip loads this frame (written by the GripLoad stage): the force on each
 /// holding limb and the residual wrench (see `slothsim-load`).
 #[derive(Component, Clone, Copy, Debug, Default)]

@@ -19,7 +19,8 @@ use slothsim_scene::ForestConfig;
 
 use crate::StageTimings;
 use crate::world::{
-    CrowdNeighbours, GripLoad, Locomotion, SimClock, SlothId, SlothState, Traces, new_world,
+    CROWD_LOAD_EVERY, CrowdNeighbours, GripLoad, GripLoadEvery, Locomotion, SimClock, SlothId,
+    SlothState, Traces, new_world,
 };
 
 pub mod checkpoint;
@@ -154,6 +155,11 @@ impl Crowd {
         });
         let mut world = new_world(loco, spec.dt);
         world.resource_mut::<SimClock>().frame = frame;
+        world.insert_resource(GripLoadEvery(if keep_history {
+            1
+        } else {
+            CROWD_LOAD_EVERY
+        }));
         if let Some(n) = neighbours {
             world.insert_resource(n);
         }
