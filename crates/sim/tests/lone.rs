@@ -41,6 +41,8 @@ fn lone_crowd_keeps_every_observation_for_its_judge() {
     }
     assert_eq!(crowd.frame(), frames);
     assert_eq!(crowd.timings().history.len() as u64, frames);
+    // A lone sloth's grip loads are solved every frame.
+    assert_eq!(crowd.sloths()[0].load.skipped, 0);
     let e = crowd.entity(0).expect("sloth 0");
     assert_eq!(crowd.entity(1), None);
     let o = crowd.world().get::<Observer>(e).expect("an observer");

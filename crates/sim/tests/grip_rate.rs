@@ -1,0 +1,66 @@
+//! How often the GripLoad stage solves: a crowd solves each sloth every
+//! `CROWD_LOAD_EVERY`-th frame, sloths staggered by id so every frame solves the same
+//! share of them; a lone (scenario) sloth is solved every frame.
+
+use slothsim_gait::LocomotionConfig;
+use slothsim_rig::Rig;
+use slothsim_scene::{ForestConfig, generate_forest};
+use slothsim_sim::{CROWD_LOAD_EVERY, Crowd, CrowdSpec, ForestSource, GripLoad};
+
+#[test]
+fn a_crowd_solves_each_sloth_every_fourth_frame_staggered_by_id() {
+    let forest = ForestConfig {
+        trees: 6,
+        area_m: 25.0,
+        ..ForestConfig::default()
+    };
+    let spec = CrowdSpec {
+        sloths: 40,
+        seed: 7,
+        dt: 1.0 / 60.0,
+        cfg: LocomotionConfig::default(),
+        clearance_m: 0.3,
+    };
+    let scene = generate_forest(&forest).unwrap();
+    let mut crowd =
+        Crowd::new(spec, &Rig::sloth(), scene, ForestSource::Procedural(forest)).unwrap();
+    let every = CROWD_LOAD_EVERY as usize;
+    assert_eq!(every, 4);
+    for _ in 0..10 {
+        crowd.tick();
+    }
+    let frames = 4 * every;
+    let mut solved = vec![0usize; 40];
+    for _ in 0..frames {
+        crowd.tick();
+        let sloths = crowd.sloths();
+        // `skipped == 0`: solved in this frame.
+        let now: Vec<u32> = sloths
+            .iter()
+            .filter(|s| s.load.skipped == 0)
+            .map(|s| s.id)
+            .collect();
+        assert_eq!(now.len(), 40 / every, "{now:?}");
+        let phase = now[0] as usize % every;
+        assert!(
+            now.iter().all(|&id| id as usize % every == phase),
+            "{now:?}"
+        );
+        for id in now {
+            solved[id as usize] += 1;
+        }
+    }
+    assert!(solved.iter().all(|&n| n == frames / every), "{solved:?}");
+    // Every sloth holds loads (solved, finite, ≥ 2 grips carry it).
+    let world = crowd.world();
+    for id in 0..40 {
+        let e = crowd.entity(id).unwrap();
+        let g = world.get::<GripLoad>(e).unwrap().0;
+        assert!(g.ok, "sloth {id}");
+        assert!(g.force.iter().all(|f| f.is_finite()) && g.residual_bw.is_finite());
+        assert!(
+            g.force.iter().filter(|f| f.length() > 0.0).count() >= 2,
+            "{g:?}"
+        );
+    }
+}
