@@ -1,6 +1,6 @@
 //! The baseline `slothsim bench --baseline` measures the crowd against: what a
 //! first attempt would be. One heap object per sloth, one thread, each sloth's
-//! five stages run back to back, and each of its trace requests answered on
+//! six stages run back to back, and each of its trace requests answered on
 //! the spot by a brute-force test against every primitive of the forest (no
 //! BVH, no batching, no ECS, no parallelism).
 //!
@@ -22,7 +22,8 @@ struct SlothObject {
 }
 
 impl SlothObject {
-    /// A whole frame of this sloth: trace, step search, body, IK, gait clock.
+    /// A whole frame of this sloth: trace, step search, body, IK, grip loads (at the
+    /// crowd's rate), gait clock.
     fn update(&mut self, loco: &Locomotion, grid: &CrowdNeighbours, dt: f32) {
         let w = loco.view_in(Some(grid));
         for i in 0..self.traces.len {
@@ -31,6 +32,7 @@ impl SlothObject {
         self.sloth.step_search(&w, &mut self.traces);
         self.sloth.body_average(&w, dt);
         self.sloth.solve_limbs(&w);
+        self.sloth.grip_load(&w, dt, crate::world::CROWD_LOAD_EVERY);
         self.sloth.transitions(&w, dt, &mut self.traces);
     }
 }
