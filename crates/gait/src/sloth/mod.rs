@@ -30,6 +30,7 @@ mod checks;
 mod clock;
 mod collide;
 mod observe;
+mod replan;
 mod route;
 mod search;
 mod solve;
@@ -37,6 +38,7 @@ mod spawn;
 mod transfer;
 
 pub use body::BodyMemo;
+pub use replan::Backoff;
 pub use solve::SolveMemo;
 pub use transfer::Transfer;
 
@@ -223,6 +225,12 @@ pub struct Sloth {
     /// Wander mode, stopped (`NoGrip`): the time it tries again (the way
     /// may have been blocked by sloths that since moved on).
     pub resume_at: Option<f32>,
+    /// Goal mode: a back-off under way, re-planning a stuck step (see `replan.rs`).
+    #[serde(default)]
+    pub backoff: Option<Backoff>,
+    /// Goal mode: re-plans made (each a back-off started or ended early).
+    #[serde(default)]
+    pub replans: u8,
 }
 
 /// Serde for [`ChainPose`] (four quaternions, bit-exact through serde's f32).

@@ -214,7 +214,11 @@ impl Sloth {
     pub(super) fn next_neighbour(&mut self, env: &LocoView<'_>, li: usize) -> bool {
         let limb = Limb::ALL[li];
         let cur = self.limbs[li].grip;
-        let neighbours = env.adjacency.neighbours(cur.support);
+        let neighbours = if self.keeps_to(cur.support) {
+            &[]
+        } else {
+            env.adjacency.neighbours(cur.support)
+        };
         let mut k = match self.limbs[li].search.neighbour {
             u16::MAX => 0usize,
             n => n as usize,
@@ -262,6 +266,16 @@ impl Sloth {
         }
         self.limbs[li].search.neighbour = k as u16;
         false
+    }
+
+    /// Goal mode: once all four limbs hold the goal's support, the sloth
+    /// keeps to it (its neighbours lead away: descending a trunk to its
+    /// goal, the leading hind limbs took a branch falling away below the
+    /// junction and walked out on it). Before that a limb may step back off
+    /// it (a fore limb on the goal's branch back onto the trunk, to let the
+    /// hind pair follow).
+    pub(super) fn keeps_to(&self, sid: SupportId) -> bool {
+        !self.wander && self.goal.is_some_and(|(gs, _)| gs == sid) && self.grips_only(sid)
     }
 
     /// Wander mode: whether this sloth may change between a branch and a

@@ -112,6 +112,8 @@ impl Sloth {
             turns: 0,
             stalled_turns: 0,
             resume_at: None,
+            backoff: None,
+            replans: 0,
             transfer: None,
             hind_back_scale: 1.0,
             hang_side: Vec3::ZERO,

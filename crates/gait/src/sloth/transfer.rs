@@ -151,6 +151,8 @@ impl Sloth {
             _ => 1.0,
         };
         self.dir = dir;
+        // A back-off under way ends: the travel now heads for the goal.
+        self.backoff = None;
         for l in &mut self.limbs {
             l.grip.sdir = dir * up_u;
         }
