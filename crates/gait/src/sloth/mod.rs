@@ -231,6 +231,10 @@ pub struct Sloth {
     /// Goal mode: re-plans made (each a back-off started or ended early).
     #[serde(default)]
     pub replans: u8,
+    /// Goal mode, `transfer_to_branch`: the hind pair found no step together
+    /// and re-planned: the hind limbs leave the trunk one at a time.
+    #[serde(default)]
+    pub hind_single: bool,
 }
 
 /// Serde for [`ChainPose`] (four quaternions, bit-exact through serde's f32).

@@ -11,6 +11,8 @@
 
 use serde::{Deserialize, Serialize};
 
+use slothsim_rig::Limb;
+
 use super::{LocoView, Sloth};
 
 /// Re-plans a goal-mode sloth makes before it stops (`no_grip`).
@@ -38,6 +40,17 @@ impl Sloth {
             return false;
         }
         self.replans += 1;
+        // transfer_to_branch with the fore limbs across and the hind pair
+        // stuck on the trunk: the hind limbs go one at a time.
+        if let Some(tr) = self.transfer
+            && tr.to != tr.trunk
+            && !self.hind_single
+            && self.hind_pair(Limb::LH.index(), tr.to).is_some()
+        {
+            self.hind_single = true;
+            self.failed_searches = 0;
+            return true;
+        }
         match self.backoff.take() {
             Some(b) => self.face(b.dir),
             None => {

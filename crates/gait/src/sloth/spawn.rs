@@ -114,6 +114,7 @@ impl Sloth {
             resume_at: None,
             backoff: None,
             replans: 0,
+            hind_single: false,
             transfer: None,
             hind_back_scale: 1.0,
             hang_side: Vec3::ZERO,
