@@ -50,10 +50,13 @@ pub struct MatrixArgs {
     shard: ShardArgs,
 }
 
-/// One row of the matrix.
+/// One row of the matrix: a sweep (at one trunk radius, for the transfers).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct MatrixRow {
     pub scenario: String,
+    /// branch_trunk / trunk_branch: the trunk's radius (m).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub trunk_radius: Option<f32>,
     pub thesis_range: Option<[f32; 2]>,
     pub runs: Vec<MatrixRun>,
     pub passing: Vec<[f32; 2]>,
@@ -64,6 +67,9 @@ pub struct MatrixRow {
 pub struct MatrixRun {
     pub parameter: Option<f32>,
     pub variant: Option<TrunkVariant>,
+    /// branch_trunk / trunk_branch: the trunk's radius (m).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub trunk_radius: Option<f32>,
     pub pass: bool,
     pub goal_time_s: Option<f32>,
     pub failures: Vec<String>,
@@ -97,22 +103,29 @@ pub struct PartCase {
 /// A sweep: row name, preset, its variants, sweep range, thesis range (its
 /// strict interior must pass). `trunk_branch` is branch_trunk run the other
 /// way (trunk → branch, `transfer_to_branch`): the thesis's test 5 covers
-/// both ways.
+/// both ways, each at every radius of [`TRANSFER_RADII`].
 struct Sweep {
     name: &'static str,
     kind: PresetKind,
     variants: &'static [TrunkVariant],
+    /// Trunk radii (m) the sweep runs at, each its own row; empty: the preset's own.
+    radii: &'static [f32],
     range: Option<[f32; 2]>,
     thesis: Option<[f32; 2]>,
 }
 
 const UP: &[TrunkVariant] = &[TrunkVariant::Up];
 
+/// The trunk radii the transfers are swept at (m): thin, the default, and
+/// the thickest trunk wanderers take from a branch.
+pub const TRANSFER_RADII: &[f32] = &[0.08, 0.15, 0.2];
+
 const SWEEPS: [Sweep; 7] = [
     Sweep {
         name: "turn",
         kind: PresetKind::Turn,
         variants: UP,
+        radii: &[],
         range: Some([60.0, 180.0]),
         thesis: Some([95.0, 175.0]),
     },
@@ -120,6 +133,7 @@ const SWEEPS: [Sweep; 7] = [
         name: "height_change",
         kind: PresetKind::HeightChange,
         variants: UP,
+        radii: &[],
         range: Some([110.0, 220.0]),
         thesis: Some([135.0, 200.0]),
     },
@@ -127,6 +141,7 @@ const SWEEPS: [Sweep; 7] = [
         name: "branch_trunk",
         kind: PresetKind::BranchTrunk,
         variants: UP,
+        radii: TRANSFER_RADII,
         range: Some([60.0, 160.0]),
         thesis: Some([90.0, 140.0]),
     },
@@ -134,6 +149,7 @@ const SWEEPS: [Sweep; 7] = [
         name: "trunk_branch",
         kind: PresetKind::BranchTrunk,
         variants: &[TrunkVariant::ToBranch],
+        radii: TRANSFER_RADII,
         range: Some([60.0, 160.0]),
         thesis: Some([90.0, 140.0]),
     },
@@ -141,6 +157,7 @@ const SWEEPS: [Sweep; 7] = [
         name: "parallel",
         kind: PresetKind::Parallel,
         variants: UP,
+        radii: &[],
         range: None,
         thesis: None,
     },
@@ -148,6 +165,7 @@ const SWEEPS: [Sweep; 7] = [
         name: "trunk",
         kind: PresetKind::Trunk,
         variants: &[TrunkVariant::Up, TrunkVariant::Down, TrunkVariant::Around],
+        radii: &[],
         range: None,
         thesis: None,
     },
@@ -155,6 +173,7 @@ const SWEEPS: [Sweep; 7] = [
         name: "pole",
         kind: PresetKind::Pole,
         variants: UP,
+        radii: &[],
         range: None,
         thesis: None,
     },
@@ -166,6 +185,7 @@ struct Case {
     sweep: usize,
     parameter: Option<f32>,
     variant: TrunkVariant,
+    trunk_radius: Option<f32>,
 }
 
 /// Every case of the sweeps named in `only` (all when empty), in sweep
@@ -190,13 +210,21 @@ fn cases(step: f32, only: &[String]) -> Result<Vec<Case>> {
             }
             None => vec![None],
         };
-        for parameter in params {
-            for &variant in sweep.variants {
-                out.push(Case {
-                    sweep: i,
-                    parameter,
-                    variant,
-                });
+        let radii: Vec<Option<f32>> = if sweep.radii.is_empty() {
+            vec![None]
+        } else {
+            sweep.radii.iter().copied().map(Some).collect()
+        };
+        for trunk_radius in radii {
+            for &parameter in &params {
+                for &variant in sweep.variants {
+                    out.push(Case {
+                        sweep: i,
+                        parameter,
+                        variant,
+                        trunk_radius,
+                    });
+                }
             }
         }
     }
@@ -206,10 +234,14 @@ fn cases(step: f32, only: &[String]) -> Result<Vec<Case>> {
 /// The case's label in tables and plot folders.
 fn label(case: &Case) -> String {
     let sweep = &SWEEPS[case.sweep];
-    match (case.parameter, sweep.variants.len() > 1) {
+    let l = match (case.parameter, sweep.variants.len() > 1) {
         (Some(v), _) => format!("{v}"),
         (None, true) => format!("{:?}", case.variant).to_lowercase(),
         (None, false) => "-".into(),
+    };
+    match case.trunk_radius {
+        Some(r) => format!("{l}-r{r}"),
+        None => l,
     }
 }
 
@@ -250,12 +282,15 @@ pub fn rows_of(runs: Vec<(String, MatrixRun)>) -> Vec<MatrixRow> {
     let mut rows: Vec<MatrixRow> = Vec::new();
     for (scenario, run) in runs {
         match rows.last_mut() {
-            Some(row) if row.scenario == scenario => row.runs.push(run),
+            Some(row) if row.scenario == scenario && row.trunk_radius == run.trunk_radius => {
+                row.runs.push(run)
+            }
             _ => rows.push(MatrixRow {
                 thesis_range: SWEEPS
                     .iter()
                     .find(|s| s.name == scenario)
                     .and_then(|s| s.thesis),
+                trunk_radius: run.trunk_radius,
                 scenario,
                 runs: vec![run],
                 passing: Vec::new(),
@@ -271,7 +306,10 @@ pub fn rows_of(runs: Vec<(String, MatrixRun)>) -> Vec<MatrixRow> {
 /// Prints the summary table; true when every thesis range passes.
 pub fn summarise(rows: &[MatrixRow]) -> bool {
     println!();
-    println!("{:<14} {:<22} passing here", "scenario", "thesis (strict)");
+    println!(
+        "{:<14} {:<8} {:<22} passing here",
+        "scenario", "trunk r", "thesis (strict)"
+    );
     for row in rows {
         let thesis = row
             .thesis_range
@@ -289,8 +327,9 @@ pub fn summarise(rows: &[MatrixRow]) -> bool {
         };
         let fails = row.runs.iter().filter(|r| !r.pass).count();
         println!(
-            "{:<14} {:<22} {}  ({} of {} pass)",
+            "{:<14} {:<8} {:<22} {}  ({} of {} pass)",
             row.scenario,
+            row.trunk_radius.map_or("-".into(), |r| format!("{r} m")),
             thesis,
             if here.is_empty() { "none".into() } else { here },
             row.runs.len() - fails,
@@ -346,7 +385,11 @@ pub fn matrix(args: MatrixArgs) -> Result<bool> {
             .map(|&(k, case)| {
                 let sweep = &SWEEPS[case.sweep];
                 let spec = ScenarioSpec {
-                    preset: Preset::new(sweep.kind, case.parameter)?,
+                    preset: Preset::with_trunk_radius(
+                        sweep.kind,
+                        case.parameter,
+                        case.trunk_radius,
+                    )?,
                     variant: case.variant,
                     cfg: cfg.clone(),
                     dt: 1.0 / 60.0,
@@ -368,6 +411,7 @@ pub fn matrix(args: MatrixArgs) -> Result<bool> {
                 let run = MatrixRun {
                     parameter: case.parameter,
                     variant: case.variant.shown_for(sweep.kind).then_some(case.variant),
+                    trunk_radius: case.trunk_radius,
                     pass: r.verdict.pass,
                     goal_time_s: r.judge.goal_time_s,
                     failures: r.verdict.failures.clone(),

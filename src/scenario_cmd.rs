@@ -70,6 +70,9 @@ pub struct ScenarioArgs {
     /// Preset parameter in metres (parallel: gap; trunk: radius).
     #[arg(long, allow_hyphen_values = true)]
     param: Option<f32>,
+    /// branch_trunk: the trunk's radius in metres (0.05–0.3; default 0.15).
+    #[arg(long, allow_hyphen_values = true)]
+    trunk_radius: Option<f32>,
     /// Gait profile.
     #[arg(long, value_enum, default_value = "free")]
     profile: ProfileArg,
@@ -176,7 +179,7 @@ pub fn goal_of(spec: &ScenarioSpec) -> glam::Vec3 {
 pub fn scenario(args: ScenarioArgs) -> Result<bool> {
     let kind = PresetKind::parse(&args.name)?;
     let value = preset_value(kind, args.angle, args.param)?;
-    let preset = Preset::new(kind, value)?;
+    let preset = Preset::with_trunk_radius(kind, value, args.trunk_radius)?;
     if !(args.dt.is_finite() && args.dt > 0.0 && args.dt <= 0.1) {
         bail!("--dt {} is outside the allowed range (0, 0.1] s", args.dt);
     }

@@ -27,7 +27,10 @@ pub use model::{
     tilt_of,
 };
 pub use percentile::percentile_sorted;
-pub use presets::{Goal, PRESET_BRANCH_RADIUS, PRESET_HEIGHT, Preset, PresetKind, StartHint};
+pub use presets::{
+    BRANCH_TRUNK_RADIUS, BRANCH_TRUNK_RADIUS_RANGE, Goal, PRESET_BRANCH_RADIUS, PRESET_HEIGHT,
+    Preset, PresetKind, StartHint,
+};
 pub use trace::{
     BoxOverlap, BvhStats, LineTrace, SceneQuery, SphereSweep, TraceHit, TraceRequest, TraceResult,
     TraceScene,

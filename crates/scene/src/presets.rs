@@ -22,6 +22,12 @@ pub const PRESET_BRANCH_RADIUS: f32 = 0.02;
 /// Height of preset branches above the ground.
 pub const PRESET_HEIGHT: f32 = 2.0;
 
+/// The branch_trunk preset's trunk radius unless given (metres).
+pub const BRANCH_TRUNK_RADIUS: f32 = 0.15;
+
+/// The trunk radii the branch_trunk preset takes (metres).
+pub const BRANCH_TRUNK_RADIUS_RANGE: [f32; 2] = [0.05, 0.3];
+
 /// The preset families.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "snake_case")]
@@ -121,6 +127,8 @@ pub struct Preset {
     pub kind: PresetKind,
     /// The parameter value used (degrees or metres), if the family has one.
     pub parameter: Option<f32>,
+    /// branch_trunk: the trunk's radius (metres); `None` for other presets.
+    pub trunk_radius: Option<f32>,
     /// The supports.
     #[serde(skip)]
     pub scene: Scene,
@@ -134,6 +142,40 @@ impl Preset {
     /// Builds preset `kind` with its parameter (`None` = the default value).
     /// Errors name the parameter and the allowed range.
     pub fn new(kind: PresetKind, param: Option<f32>) -> Result<Preset, SceneError> {
+        Preset::with_trunk_radius(kind, param, None)
+    }
+
+    /// [`Preset::new`] with the branch_trunk preset's trunk radius
+    /// (`None`: [`BRANCH_TRUNK_RADIUS`]); an error names the field and its
+    /// range when the radius is out of [`BRANCH_TRUNK_RADIUS_RANGE`] or given
+    /// for another preset.
+    pub fn with_trunk_radius(
+        kind: PresetKind,
+        param: Option<f32>,
+        trunk_radius: Option<f32>,
+    ) -> Result<Preset, SceneError> {
+        let [rlo, rhi] = BRANCH_TRUNK_RADIUS_RANGE;
+        let trunk_radius = match (kind, trunk_radius) {
+            (PresetKind::BranchTrunk, None) => Some(BRANCH_TRUNK_RADIUS),
+            (PresetKind::BranchTrunk, Some(v)) if v.is_finite() && (rlo..=rhi).contains(&v) => {
+                Some(v)
+            }
+            (_, None) => None,
+            (_, Some(v)) => {
+                return Err(SceneError::OutOfRange {
+                    field: "trunk_radius",
+                    value: v as f64,
+                    allowed: if kind == PresetKind::BranchTrunk {
+                        format!("{rlo}..={rhi} m for preset `branch_trunk`")
+                    } else {
+                        format!(
+                            "none: only preset `branch_trunk` takes a trunk radius, not `{}`",
+                            kind.name()
+                        )
+                    },
+                });
+            }
+        };
         let value = match (kind.parameter(), param) {
             (None, None) => None,
             (None, Some(v)) => {
@@ -215,7 +257,7 @@ impl Preset {
                 )
             }
             PresetKind::BranchTrunk => {
-                let trunk_r = 0.15;
+                let trunk_r = trunk_radius.unwrap_or(BRANCH_TRUNK_RADIUS);
                 let a = p.to_radians();
                 let away = Vec3::new(a.sin(), a.cos(), 0.0);
                 let junction = Vec3::new(0.0, 3.0, 0.0);
@@ -251,6 +293,7 @@ impl Preset {
         Ok(Preset {
             kind,
             parameter: value,
+            trunk_radius,
             scene: Scene::new(supports)?,
             start,
             goal,
@@ -311,6 +354,39 @@ mod tests {
                 assert!(q.distance(pt) < 1e-4, "{:?} point off axis", kind);
             }
         }
+    }
+
+    #[test]
+    fn branch_trunk_takes_a_trunk_radius() {
+        for r in [0.08f32, 0.15, 0.2] {
+            let p =
+                Preset::with_trunk_radius(PresetKind::BranchTrunk, Some(117.5), Some(r)).unwrap();
+            assert_eq!(p.trunk_radius, Some(r));
+            let trunk = p.scene.support(p.goal.support);
+            assert_eq!(trunk.kind, SupportKind::Trunk);
+            let (.., radius) = trunk.closest_on_axis(Vec3::new(0.0, 2.0, 0.0));
+            assert!((radius - r).abs() < 1e-6, "{radius} != {r}");
+        }
+        let default = Preset::new(PresetKind::BranchTrunk, None).unwrap();
+        assert_eq!(default.trunk_radius, Some(BRANCH_TRUNK_RADIUS));
+        let err = Preset::with_trunk_radius(PresetKind::BranchTrunk, None, Some(0.5))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("trunk_radius") && err.contains("0.05..=0.3"),
+            "{err}"
+        );
+        let err = Preset::with_trunk_radius(PresetKind::Turn, None, Some(0.1))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("trunk_radius") && err.contains("turn"),
+            "{err}"
+        );
+        assert_eq!(
+            Preset::new(PresetKind::Turn, None).unwrap().trunk_radius,
+            None
+        );
     }
 
     #[test]

@@ -113,6 +113,9 @@ pub struct ScenarioResult {
     pub scenario: String,
     /// Parameter value (degrees or metres).
     pub parameter: Option<f32>,
+    /// branch_trunk: the trunk's radius (metres).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub trunk_radius: Option<f32>,
     /// Trunk variant.
     pub variant: Option<TrunkVariant>,
     /// Pass/fail with the failing measures.
@@ -344,6 +347,7 @@ pub fn run_scenario_observed(
     Ok(ScenarioResult {
         scenario: preset.kind.name().to_string(),
         parameter: preset.parameter,
+        trunk_radius: preset.trunk_radius,
         variant: variant.shown_for(preset.kind).then_some(variant),
         verdict,
         status,

@@ -36,6 +36,7 @@ impl Sloth {
         if self.status != Status::Moving {
             return;
         }
+        self.end_backoff();
         self.finish_transfer(env);
         // At the goal with a limb still swinging (the steady profile's
         // swings overlap, so a moment with all four planted may never come

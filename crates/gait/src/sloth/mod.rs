@@ -30,6 +30,7 @@ mod checks;
 mod clock;
 mod collide;
 mod observe;
+mod replan;
 mod route;
 mod search;
 mod solve;
@@ -37,6 +38,7 @@ mod spawn;
 mod transfer;
 
 pub use body::BodyMemo;
+pub use replan::Backoff;
 pub use solve::SolveMemo;
 pub use transfer::Transfer;
 
@@ -226,6 +228,16 @@ pub struct Sloth {
     /// Grip loads: centre-of-mass history and the release rule's counters.
     #[serde(default)]
     pub load: crate::load::LoadTrack,
+    /// Goal mode: a back-off under way, re-planning a stuck step (see `replan.rs`).
+    #[serde(default)]
+    pub backoff: Option<Backoff>,
+    /// Goal mode: re-plans made (each a back-off started or ended early).
+    #[serde(default)]
+    pub replans: u8,
+    /// Goal mode, `transfer_to_branch`: the hind pair found no step together
+    /// and re-planned: the hind limbs leave the trunk one at a time.
+    #[serde(default)]
+    pub hind_single: bool,
 }
 
 /// Serde for [`ChainPose`] (four quaternions, bit-exact through serde's f32).

@@ -112,12 +112,21 @@ impl Sloth {
         let cur = self.limbs[li].grip;
         let root = self.limbs[li].root;
         let entry = project(s2, (cur.point + root) * 0.5);
+        // A step onto the goal's support (goal mode) by a limb following the
+        // leading ones, or by a leading limb climbed level with the end of
+        // that support nearest it, is judged by its reach checks alone: on a
+        // 0.2 m trunk the fore limbs climbed past the goal's branch without
+        // searching it (trunk_branch passed at no angle), and hind limbs
+        // stepping one at a time onto it (see `replan.rs`) start low. Lower
+        // down, a fore limb taking a branch that falls away toward it left
+        // the hind limbs out of reach below (trunk_branch at 140°).
         // transfer_to_branch's hind pair is judged by its reach check at the
         // stance after the step (with the hindquarters' offset back): before
         // the pair moves, the hips low on the trunk are seldom within reach
         // of a branch that falls away from the junction (trunk_branch at
         // 110°–130° stopped there).
         if self.hind_pair(li, sid).is_none()
+            && !self.reach_decides(env, li, sid)
             && entry.point.distance(root) - entry.radius > env.rig.reach
         {
             return None;
@@ -214,7 +223,11 @@ impl Sloth {
     pub(super) fn next_neighbour(&mut self, env: &LocoView<'_>, li: usize) -> bool {
         let limb = Limb::ALL[li];
         let cur = self.limbs[li].grip;
-        let neighbours = env.adjacency.neighbours(cur.support);
+        let neighbours = if self.keeps_to(cur.support) {
+            &[]
+        } else {
+            env.adjacency.neighbours(cur.support)
+        };
         let mut k = match self.limbs[li].search.neighbour {
             u16::MAX => 0usize,
             n => n as usize,
@@ -262,6 +275,43 @@ impl Sloth {
         }
         self.limbs[li].search.neighbour = k as u16;
         false
+    }
+
+    /// Goal mode: `sid` is the goal's support.
+    fn goal_support(&self, sid: SupportId) -> bool {
+        !self.wander && self.goal.is_some_and(|(gs, _)| gs == sid)
+    }
+
+    /// Goal mode: whether limb `li`'s step onto the goal's support `sid` is
+    /// judged by its reach checks alone (see [`Self::neighbour_search`]): a
+    /// following limb's, or a leading limb's level with or above the end of
+    /// that support nearest its grip.
+    fn reach_decides(&self, env: &LocoView<'_>, li: usize, sid: SupportId) -> bool {
+        if !self.goal_support(sid) {
+            return false;
+        }
+        if !self.leads(Limb::ALL[li]) {
+            return true;
+        }
+        let s = env.scene().support(sid);
+        let cur = self.limbs[li].grip.point;
+        let (a, b) = (s.nodes[0], s.nodes[s.nodes.len() - 1]);
+        let end = if a.distance(cur) <= b.distance(cur) {
+            a
+        } else {
+            b
+        };
+        cur.y >= end.y
+    }
+
+    /// Goal mode: once all four limbs hold the goal's support, the sloth
+    /// keeps to it (its neighbours lead away: descending a trunk to its
+    /// goal, the leading hind limbs took a branch falling away below the
+    /// junction and walked out on it). Before that a limb may step back off
+    /// it (a fore limb on the goal's branch back onto the trunk, to let the
+    /// hind pair follow).
+    pub(super) fn keeps_to(&self, sid: SupportId) -> bool {
+        self.goal_support(sid) && self.grips_only(sid)
     }
 
     /// Wander mode: whether this sloth may change between a branch and a

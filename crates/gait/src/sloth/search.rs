@@ -271,6 +271,8 @@ impl Sloth {
                     // of the limbs' reach: see README); then stop here.
                     if self.wander && self.stalled_turns < MAX_STALLED_TURNS {
                         self.turn_back();
+                    } else if self.replan(env) {
+                        // Goal mode: backed off (or toward the goal again).
                     } else {
                         self.status = Status::NoGrip;
                         if self.wander {

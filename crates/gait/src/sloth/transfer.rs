@@ -123,6 +123,7 @@ impl Sloth {
             return;
         }
         self.transfer = None;
+        self.hind_single = false;
         let s = env.scene().support(tr.to);
         if s.kind != SupportKind::Trunk {
             self.hang_trunk = Some(tr.trunk);
@@ -151,6 +152,8 @@ impl Sloth {
             _ => 1.0,
         };
         self.dir = dir;
+        // A back-off under way ends: the travel now heads for the goal.
+        self.backoff = None;
         for l in &mut self.limbs {
             l.grip.sdir = dir * up_u;
         }
@@ -163,7 +166,7 @@ impl Sloth {
     pub(super) fn hind_pair(&self, li: usize, sid: SupportId) -> Option<usize> {
         let tr = self.transfer?;
         let limb = Limb::ALL[li];
-        if limb.is_fore() || self.dir < 0.0 || tr.to != sid || tr.trunk == sid {
+        if limb.is_fore() || self.dir < 0.0 || tr.to != sid || tr.trunk == sid || self.hind_single {
             return None;
         }
         let partner = limb.opposite().index();
