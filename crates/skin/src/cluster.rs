@@ -42,7 +42,7 @@ fn phi(r: f32, sigma: f32) -> f32 {
 }
 
 /// Rotation vector of `q` (axis × angle, angle in [0, π]).
-fn rotation_vector(q: Quat) -> Vec3 {
+pub(crate) fn rotation_vector(q: Quat) -> Vec3 {
     let q = if q.w < 0.0 { -q } else { q };
     let (axis, angle) = q.to_axis_angle();
     axis * angle
