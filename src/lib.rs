@@ -83,4 +83,5 @@ pub use slothsim_scene as scene;
 pub use slothsim_sim as sim;
 pub use slothsim_skin as skin;
 
+pub mod skin_view;
 pub mod to_plot;
