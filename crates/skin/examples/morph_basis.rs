@@ -29,7 +29,7 @@ fn main() -> Result<(), slothsim_skin::SkinError> {
         targets.len(),
         targets.per_joint()
     );
-    for t in targets.targets().iter().take(2) {
+    for t in &targets.targets() {
         println!("{}: {} vertices", t.name, t.vertices.len());
     }
     let mut scratch = MorphScratch::default();

@@ -144,3 +144,41 @@ fn locals_with_names_a_missing_joint_and_a_nan_pose_is_an_error() {
     );
     let _ = (clusters, targets);
 }
+
+#[test]
+fn bad_reference_shapes_are_errors_naming_the_joint_and_vertex() {
+    let mesh = SkinMesh::sloth().unwrap();
+    let good = ReferenceShapes::sloth().unwrap();
+    let joint = good.joints[2].joint.clone();
+    let check = |refs: &ReferenceShapes, needles: &[&str]| {
+        let e = ClusterSkin::new(&mesh, refs).unwrap_err().to_string();
+        for n in needles {
+            assert!(e.contains(n), "`{e}` lacks `{n}`");
+        }
+    };
+    // A joint with no clusters.
+    let mut refs = good.clone();
+    refs.joints[2].pairs.clear();
+    check(&refs, &[&joint, "no control clusters"]);
+    // A vertex named by two clusters.
+    let mut refs = good.clone();
+    let v = refs.joints[2].pairs[0][0];
+    refs.joints[2].pairs[1][0] = v;
+    check(&refs, &[&joint, &v.to_string(), "two clusters"]);
+    // A vertex of another limb (not weighted to the joint's bones).
+    let mut refs = good.clone();
+    refs.joints[2].pairs[0][1] = good.joints[6].pairs[0][0];
+    check(&refs, &[&joint, "not weighted to the joint's bones"]);
+    // A non-finite reference position.
+    let mut refs = good.clone();
+    refs.joints[2].shapes[3][5] = Vec3::new(0.0, f32::NAN, 0.0);
+    check(&refs, &[&joint, "shape 3 is not finite"]);
+    // A joint missing altogether (the rig asset lacks its reference shapes).
+    let mut refs = good.clone();
+    refs.joints.retain(|j| j.joint != joint);
+    check(&refs, &[&joint, "missing reference shapes"]);
+    // Fewer shapes than configurations.
+    let mut refs = good;
+    refs.joints[2].shapes.pop();
+    check(&refs, &[&joint, "need ≥ 2, equal"]);
+}
