@@ -9,7 +9,7 @@ use std::time::Instant;
 use anyhow::{Context, Result, anyhow, bail};
 use clap::Args;
 use serde::Serialize;
-use slothsim::export::{SlothModel, TrajectoryCsv, write_glb};
+use slothsim::export::{Correctives, GlbSummary, Skinning, SlothModel, TrajectoryCsv, write_glb};
 use slothsim::rig::Rig;
 use slothsim::scene::Scene;
 use slothsim::sim::record::{RecordSelection, Sampler, check_hz};
@@ -27,6 +27,50 @@ pub struct RecordArgs {
     /// tick rate when slower].
     #[arg(long, allow_hyphen_values = true)]
     pub record_hz: Option<f64>,
+    /// How crowd.glb skins the sloths: `clusters` (control-cluster correction as animated
+    /// corrective morph targets) or `lbs` (plain linear blend skinning).
+    #[arg(long, value_enum, default_value_t = SkinningArg::Clusters)]
+    pub skinning: SkinningArg,
+}
+
+/// `--skinning lbs|clusters`.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SkinningArg {
+    /// Linear blend skinning only.
+    Lbs,
+    /// LBS + control clusters as corrective morph targets (default).
+    Clusters,
+}
+
+impl SkinningArg {
+    fn skinning(self) -> Skinning {
+        match self {
+            SkinningArg::Lbs => Skinning::Lbs,
+            SkinningArg::Clusters => Skinning::Clusters,
+        }
+    }
+}
+
+/// Writes `rec` as `path` with `skinning` (building the corrective targets for clusters).
+fn write_crowd_glb(
+    path: &Path,
+    scene: &Scene,
+    rec: &slothsim::export::Recording,
+    skinning: SkinningArg,
+) -> Result<GlbSummary> {
+    let correctives = match skinning.skinning() {
+        Skinning::Lbs => None,
+        Skinning::Clusters => Some(
+            Correctives::sloth().map_err(|e| anyhow!("--skinning clusters: sloth asset: {e}"))?,
+        ),
+    };
+    Ok(write_glb(
+        path,
+        scene,
+        &SlothModel::sloth(),
+        rec,
+        correctives.as_ref(),
+    )?)
 }
 
 /// Default recording rate (samples per simulated second).
@@ -49,6 +93,13 @@ pub struct RecordStats {
     pub glb_bytes: u64,
     /// Building and writing crowd.glb, ms.
     pub glb_write_ms: f64,
+    /// `lbs` or `clusters` (`--skinning`).
+    pub skinning: &'static str,
+    /// Corrective morph targets on the sloth mesh (0 with lbs).
+    pub morph_targets: usize,
+    /// Largest fit residual of the morph weights to the cluster correction, mm: a bound
+    /// on morph-then-skin's distance from the in-house cluster result (0 with lbs).
+    pub morph_residual_mm: f64,
     /// trajectories.csv rows.
     pub csv_rows: u64,
     /// Finishing trajectories.csv (rows are written while sampling), ms.
@@ -151,14 +202,19 @@ pub fn start_scenario(
 }
 
 /// Writes `dir/crowd.glb` and finishes `dir/trajectories.csv`.
-pub fn finish(sampler: Sampler, scene: &Scene, dir: &Path) -> Result<RecordStats> {
+pub fn finish(
+    sampler: Sampler,
+    scene: &Scene,
+    dir: &Path,
+    args: &RecordArgs,
+) -> Result<RecordStats> {
     let record_ms = sampler.cost().as_secs_f64() * 1e3;
     let samples = sampler.samples();
     let hz = sampler.hz();
     let (rec, csv) = sampler.finish();
     let t = Instant::now();
     let path = dir.join("crowd.glb");
-    let glb = write_glb(&path, scene, &SlothModel::sloth(), &rec)?;
+    let glb = write_crowd_glb(&path, scene, &rec, args.skinning)?;
     let glb_write_ms = t.elapsed().as_secs_f64() * 1e3;
     let t = Instant::now();
     let csv_rows = csv.as_ref().map_or(0, TrajectoryCsv::rows);
@@ -173,11 +229,14 @@ pub fn finish(sampler: Sampler, scene: &Scene, dir: &Path) -> Result<RecordStats
         record_ms_per_sample: record_ms / samples.max(1) as f64,
         glb_bytes: glb.bytes,
         glb_write_ms,
+        skinning: args.skinning.skinning().name(),
+        morph_targets: glb.morph_targets,
+        morph_residual_mm: f64::from(glb.morph_residual_m) * 1e3,
         csv_rows,
         csv_finish_ms: t.elapsed().as_secs_f64() * 1e3,
     };
     println!(
-        "recorded {} sloths × {} samples at {} Hz: sampling {:.1} ms ({:.3} ms a sample); {} ({:.1} MB) in {:.0} ms, trajectories.csv ({} rows)",
+        "recorded {} sloths × {} samples at {} Hz: sampling {:.1} ms ({:.3} ms a sample); {} ({:.1} MB, skinning {}{}) in {:.0} ms, trajectories.csv ({} rows)",
         stats.sloths,
         stats.samples,
         stats.hz,
@@ -185,10 +244,24 @@ pub fn finish(sampler: Sampler, scene: &Scene, dir: &Path) -> Result<RecordStats
         stats.record_ms_per_sample,
         path.display(),
         stats.glb_bytes as f64 / 1e6,
+        stats.skinning,
+        morph_note(&glb),
         stats.glb_write_ms,
         stats.csv_rows
     );
     Ok(stats)
+}
+
+/// `: 28 corrective morph targets, fit within 0.21 mm` (nothing with lbs).
+fn morph_note(glb: &GlbSummary) -> String {
+    if glb.morph_targets == 0 {
+        return String::new();
+    }
+    format!(
+        ": {} corrective morph targets, fit within {:.2} mm",
+        glb.morph_targets,
+        glb.morph_residual_m * 1e3
+    )
 }
 
 /// `slothsim export`: one instant of a checkpoint as glTF (pose only).
@@ -206,6 +279,9 @@ pub struct ExportArgs {
     /// Sloths to include: all (default), a count N (spread over the forest, from sloth 0), or ids ID,ID,…
     #[arg(long, value_name = "all|N|ID,…")]
     record: Option<String>,
+    /// How the sloths are skinned: clusters (corrective morph targets) or lbs.
+    #[arg(long, value_enum, default_value_t = SkinningArg::Clusters)]
+    skinning: SkinningArg,
 }
 
 pub fn export(args: ExportArgs) -> Result<bool> {
@@ -239,13 +315,15 @@ pub fn export(args: ExportArgs) -> Result<bool> {
         .traces
         .scene();
     let t = Instant::now();
-    let glb = write_glb(&args.out, scene, &SlothModel::sloth(), &rec)?;
+    let glb = write_crowd_glb(&args.out, scene, &rec, args.skinning)?;
     println!(
-        "wrote {} ({} sloths at t = {:.2} s, {:.1} MB, {:.0} ms)",
+        "wrote {} ({} sloths at t = {:.2} s, {:.1} MB, skinning {}{}, {:.0} ms)",
         args.out.display(),
         rec.tracks.len(),
         rec.times.first().copied().unwrap_or(0.0),
         glb.bytes as f64 / 1e6,
+        args.skinning.skinning().name(),
+        morph_note(&glb),
         t.elapsed().as_secs_f64() * 1e3
     );
     Ok(true)

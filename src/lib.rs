@@ -81,5 +81,7 @@ pub use slothsim_observe as observe;
 pub use slothsim_rig as rig;
 pub use slothsim_scene as scene;
 pub use slothsim_sim as sim;
+pub use slothsim_skin as skin;
 
+pub mod skin_view;
 pub mod to_plot;

@@ -185,18 +185,37 @@ pub fn scenario_plots(
         td.view = Some(view);
         draw_topdown(&td)
     })?;
-    // Side view: up to 8 instants spread over the run, always the last one.
+    // Side view: up to 8 instants spread over the run, always the last one, each over
+    // its cluster-skinned mesh (skinned here, for the drawn instants only).
     let n = poses.len();
-    let picks: Vec<_> = if n <= 8 {
-        poses.clone()
+    let idx: Vec<usize> = if n <= 8 {
+        (0..n).collect()
     } else {
         let mut idx: Vec<usize> = (0..8).map(|k| k * (n - 1) / 7).collect();
         idx.dedup();
-        idx.into_iter().map(|i| poses[i]).collect()
+        idx
     };
+    let picks: Vec<_> = idx.iter().map(|&i| poses[i]).collect();
+    let skinner = slothsim::skin_view::Skinner::sloth();
+    let silhouettes: Vec<Vec<Vec3>> = idx
+        .iter()
+        .map(|&i| match &skinner {
+            Ok(s) => s.skin(&r.poses[i].pose).unwrap_or_else(|e| {
+                eprintln!("side.png: no mesh at t = {:.2} s: {e}", r.poses[i].time_s);
+                Vec::new()
+            }),
+            Err(_) => Vec::new(),
+        })
+        .collect();
+    if let Err(e) = &skinner {
+        eprintln!("side.png: skeleton only, the sloth mesh cannot be skinned: {e}");
+    }
+    let triangles = skinner.as_ref().map_or(&[][..], |s| s.triangles());
     render(dir, "side.png", &mut costs, || {
         let mut sv = SideView::new(scene, &picks);
         sv.title = format!("{label}: side view");
+        sv.silhouettes = &silhouettes;
+        sv.silhouette_triangles = triangles;
         draw_side(&sv)
     })?;
     render(dir, "gait.png", &mut costs, || {

@@ -437,7 +437,7 @@ fn run_one(
     }
     let scene = crowd.world().resource::<Locomotion>().traces.scene();
     let record = sampler
-        .map(|s| crate::export_cmd::finish(s, scene, out))
+        .map(|s| crate::export_cmd::finish(s, scene, out, &args.record))
         .transpose()?;
     let output = RunOutput {
         stats: &stats,

@@ -217,7 +217,7 @@ pub fn scenario(args: ScenarioArgs) -> Result<bool> {
     };
     print_result(&result);
     if let (Some(s), Some(dir)) = (sampler, &args.out) {
-        crate::export_cmd::finish(s, &spec.preset.scene, dir)?;
+        crate::export_cmd::finish(s, &spec.preset.scene, dir, &args.record)?;
     }
     if let Some(dir) = &args.out {
         let provenance = Provenance::here(1, Some(&spec.cfg));

@@ -221,6 +221,9 @@ fn scenario_writes_four_plots() {
     let side = plot(dir, "side.png", (1400, 1000));
     assert!(count(&side, colors::LEFT_LIMB, 12) > 50, "left limbs");
     assert!(count(&side, colors::RIGHT_LIMB, 12) > 50, "right limbs");
+    // The cluster-skinned mesh under the skeleton (the newest instant: half-opaque fur).
+    let fur = colors::SLOTH_FUR.with_alpha(127).over(colors::PANEL);
+    assert!(count(&side, fur, 12) > 300, "skinned silhouette");
     let gait = plot(dir, "gait.png", (1400, 420));
     assert!(
         count(&gait, colors::GAIT_FORE, 4) > 500,

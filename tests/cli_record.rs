@@ -164,7 +164,14 @@ fn scenario_records_its_sloth_and_export_writes_a_checkpoint() {
     let glb = std::fs::read(dir.join("crowd.glb")).unwrap();
     let (doc, _, _) = gltf::import_slice(&glb).unwrap();
     assert_eq!(doc.skins().count(), 1);
-    assert_eq!(doc.animations().next().unwrap().channels().count(), 18);
+    // 2 root + 16 limb joints + the mesh node's morph `weights` (default --skinning clusters).
+    let anim = doc.animations().next().unwrap();
+    assert_eq!(anim.channels().count(), 19);
+    let weights = anim
+        .channels()
+        .filter(|c| c.target().property() == gltf::animation::Property::MorphTargetWeights)
+        .count();
+    assert_eq!(weights, 1);
 
     let state = tmp.path().join("state.bin");
     let run_dir = tmp.path().join("run");
@@ -195,4 +202,10 @@ fn scenario_records_its_sloth_and_export_writes_a_checkpoint() {
     let (doc, _, _) = gltf::import_slice(std::fs::read(&still).unwrap()).unwrap();
     assert_eq!(doc.skins().count(), 20);
     assert_eq!(doc.animations().count(), 0, "a still pose");
+    // Each sloth's mesh node holds its morph weights for that pose.
+    let weighted = doc
+        .nodes()
+        .filter(|n| n.skin().is_some() && n.weights().is_some_and(|w| w.len() == 28))
+        .count();
+    assert_eq!(weighted, 20);
 }

@@ -156,7 +156,7 @@ fn animation_reproduces_the_simulated_joints() {
     }
     let (rec, _) = sampler.finish();
     assert_eq!(rec.times.len(), 121, "30 Hz over 4 s, both ends");
-    let bytes = glb_bytes(&scene, &SlothModel::sloth(), &rec).unwrap();
+    let bytes = glb_bytes(&scene, &SlothModel::sloth(), &rec, None).unwrap();
 
     // Re-import.
     let (doc, buffers, _) = gltf::import_slice(&bytes).expect("valid glb");

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Validate .glb files with the Khronos glTF validator: 0 errors or exit 1.
+# Validate .glb files with the Khronos glTF validator: 0 errors and 0 warnings, or exit 1.
 # Installs the npm package `gltf-validator` into $GLTF_VALIDATOR_DIR (default
 # target/gltf-validator) on first use. Needs node and npm.
 #   tools/validate-gltf.sh FILE.glb [FILE.glb …]

@@ -1,5 +1,5 @@
 // Validate glTF/GLB files with the Khronos glTF validator (npm `gltf-validator`).
-// Prints the counts and every error and warning; exits 1 when a file has errors.
+// Prints the counts and every error and warning; exits 1 when a file has errors or warnings.
 //   node tools/view/validate.mjs FILE.glb [FILE.glb …]
 import { readFileSync } from "node:fs";
 import { createRequire } from "node:module";
@@ -29,6 +29,6 @@ for (const file of process.argv.slice(2)) {
   for (const [key, { n, at }] of counts) {
     console.log(`  ${key} (${n}×, first at ${at})`);
   }
-  if (i.numErrors > 0) failed = true;
+  if (i.numErrors > 0 || i.numWarnings > 0) failed = true;
 }
 process.exit(failed ? 1 : 0);

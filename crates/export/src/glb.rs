@@ -18,10 +18,11 @@ use gltf_json as json;
 use json::validation::{Checked::Valid, USize64};
 use slothsim_scene::Scene;
 
-use crate::{AtomicFile, ExportError, Recording, SlothModel};
+use crate::corrective::TrackWeights;
+use crate::{AtomicFile, Correctives, ExportError, Recording, SlothModel};
 
 /// What was written.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct GlbSummary {
     /// File size (bytes).
     pub bytes: u64,
@@ -31,6 +32,12 @@ pub struct GlbSummary {
     pub sloths: usize,
     /// Sample times (keyframes per channel).
     pub samples: usize,
+    /// Corrective morph targets on the sloth mesh (0 with LBS).
+    pub morph_targets: usize,
+    /// Largest bind-space residual of the morph weights' fit to the cluster correction
+    /// over every sloth and sample (m): a bound on how far morph-then-skin is from the
+    /// in-house cluster result (0 with LBS).
+    pub morph_residual_m: f32,
 }
 
 /// A document ready to be streamed: JSON, the binary data before the
@@ -40,24 +47,55 @@ struct Document {
     head: Vec<u8>,
     bin_len: usize,
     animated: bool,
+    /// Morph targets per sloth mesh (0: LBS).
+    targets: usize,
+    /// Residual of the first samples' weights.
+    residual_m: f32,
 }
 
-/// Writes the crowd to `path` (temporary name, renamed at the end).
+/// Tracks whose morph weights are computed together (bounds the memory they take).
+const WEIGHT_CHUNK: usize = 64;
+
+/// Writes the crowd to `path` (temporary name, renamed at the end); with
+/// `correctives`, the sloth mesh carries its corrective morph targets and their
+/// weights are animated per sloth (`--skinning clusters`), else plain LBS.
 ///
 /// # Errors
 /// [`ExportError::Io`] (no file is left under `path`), [`ExportError::TooLarge`]
-/// when the data exceeds what a GLB can hold (4 GiB).
+/// when the data exceeds what a GLB can hold (4 GiB), [`ExportError::Pose`] for a
+/// non-finite recorded value (naming sloth, time and joint),
+/// [`ExportError::Targets`] when the targets do not fit the model.
 pub fn write_glb(
     path: &Path,
     scene: &Scene,
     model: &SlothModel,
     rec: &Recording,
+    correctives: Option<&Correctives>,
 ) -> Result<GlbSummary, ExportError> {
-    let doc = build(scene, model, rec)?;
+    let doc = build(scene, model, rec, correctives)?;
     let mut file = AtomicFile::create(path)?;
-    let summary = stream(&doc, rec, &mut file).map_err(|e| file.error(e))?;
+    let summary = match stream(&doc, rec, correctives, &mut file) {
+        Ok(s) => s,
+        Err(Streamed::Io(e)) => return Err(file.error(e)),
+        Err(Streamed::Export(e)) => {
+            drop(file);
+            return Err(e);
+        }
+    };
     file.commit()?;
     Ok(summary)
+}
+
+/// Why streaming stopped.
+enum Streamed {
+    Io(std::io::Error),
+    Export(ExportError),
+}
+
+impl From<std::io::Error> for Streamed {
+    fn from(e: std::io::Error) -> Self {
+        Streamed::Io(e)
+    }
 }
 
 /// The crowd as GLB bytes (tests, small exports).
@@ -68,17 +106,26 @@ pub fn glb_bytes(
     scene: &Scene,
     model: &SlothModel,
     rec: &Recording,
+    correctives: Option<&Correctives>,
 ) -> Result<Vec<u8>, ExportError> {
-    let doc = build(scene, model, rec)?;
+    let doc = build(scene, model, rec, correctives)?;
     let mut out = Vec::new();
-    stream(&doc, rec, &mut out).map_err(|source| ExportError::Io {
-        path: "memory".into(),
-        source,
-    })?;
-    Ok(out)
+    match stream(&doc, rec, correctives, &mut out) {
+        Ok(_) => Ok(out),
+        Err(Streamed::Io(source)) => Err(ExportError::Io {
+            path: "memory".into(),
+            source,
+        }),
+        Err(Streamed::Export(e)) => Err(e),
+    }
 }
 
-fn stream(doc: &Document, rec: &Recording, w: &mut impl Write) -> std::io::Result<GlbSummary> {
+fn stream(
+    doc: &Document,
+    rec: &Recording,
+    correctives: Option<&Correctives>,
+    w: &mut impl Write,
+) -> Result<GlbSummary, Streamed> {
     let total = 12 + 8 + doc.json.len() + 8 + doc.bin_len;
     let u32le = |v: usize| {
         u32::try_from(v)
@@ -94,16 +141,31 @@ fn stream(doc: &Document, rec: &Recording, w: &mut impl Write) -> std::io::Resul
     w.write_all(&u32le(doc.bin_len))?;
     w.write_all(b"BIN\0")?;
     w.write_all(&doc.head)?;
+    let mut residual_m = doc.residual_m;
     if doc.animated {
         let mut buf = Vec::with_capacity(rec.track_bytes());
-        for t in &rec.tracks {
-            buf.clear();
-            buf.extend(t.translation.iter().flatten().flat_map(|v| v.to_le_bytes()));
-            buf.extend(t.rotation.iter().flatten().flat_map(|v| v.to_le_bytes()));
-            for j in &t.joints {
-                buf.extend(j.iter().flatten().flat_map(|v| v.to_le_bytes()));
+        let morphs = correctives.filter(|_| doc.targets > 0);
+        for chunk in (0..rec.tracks.len()).step_by(WEIGHT_CHUNK) {
+            let tracks = chunk..(chunk + WEIGHT_CHUNK).min(rec.tracks.len());
+            let weights: Vec<TrackWeights> = match morphs {
+                Some(c) => c
+                    .weights_of(rec, tracks.clone())
+                    .map_err(Streamed::Export)?,
+                None => Vec::new(),
+            };
+            for (k, t) in rec.tracks[tracks].iter().enumerate() {
+                buf.clear();
+                buf.extend(t.translation.iter().flatten().flat_map(|v| v.to_le_bytes()));
+                buf.extend(t.rotation.iter().flatten().flat_map(|v| v.to_le_bytes()));
+                for j in &t.joints {
+                    buf.extend(j.iter().flatten().flat_map(|v| v.to_le_bytes()));
+                }
+                if let Some(tw) = weights.get(k) {
+                    buf.extend(tw.weights.iter().flat_map(|v| v.to_le_bytes()));
+                    residual_m = residual_m.max(tw.residual_m);
+                }
+                w.write_all(&buf)?;
             }
-            w.write_all(&buf)?;
         }
     }
     w.flush()?;
@@ -112,7 +174,42 @@ fn stream(doc: &Document, rec: &Recording, w: &mut impl Write) -> std::io::Resul
         json_bytes: doc.json.len() as u64,
         sloths: rec.tracks.len(),
         samples: rec.times.len(),
+        morph_targets: doc.targets,
+        morph_residual_m: residual_m,
     })
+}
+
+/// A non-finite recorded value, named: sloth, time and what.
+fn check_finite(model: &SlothModel, rec: &Recording) -> Result<(), ExportError> {
+    for t in &rec.tracks {
+        let bad = |s: usize, what: String| ExportError::Pose {
+            sloth: t.id,
+            time_s: rec.times.get(s).copied().unwrap_or(f32::NAN),
+            why: format!("{what} is not finite"),
+        };
+        if let Some(s) = t
+            .translation
+            .iter()
+            .position(|v| !v.iter().all(|x| x.is_finite()))
+        {
+            return Err(bad(s, "the body position".into()));
+        }
+        if let Some(s) = t
+            .rotation
+            .iter()
+            .position(|v| !v.iter().all(|x| x.is_finite()))
+        {
+            return Err(bad(s, "the body rotation".into()));
+        }
+        for (k, series) in t.joints.iter().enumerate() {
+            if let Some(s) = series.iter().position(|v| !v.iter().all(|x| x.is_finite())) {
+                let j = rec.moved[k];
+                let name = model.names.get(j).map_or("?", String::as_str);
+                return Err(bad(s, format!("the rotation of joint {j} (`{name}`)")));
+            }
+        }
+    }
+    Ok(())
 }
 
 /// Appends 4-byte aligned data to the binary buffer and adds views and
@@ -189,8 +286,13 @@ fn f32_bytes<const N: usize>(v: &[[f32; N]]) -> Vec<u8> {
     v.iter().flatten().flat_map(|x| x.to_le_bytes()).collect()
 }
 
-/// The shared sloth mesh (one primitive, skinned) and its material.
-fn sloth_mesh(b: &mut Builder, model: &SlothModel) -> json::Index<json::Mesh> {
+/// The shared sloth mesh (one primitive, skinned, with `targets` as corrective morph
+/// targets) and its material.
+fn sloth_mesh(
+    b: &mut Builder,
+    model: &SlothModel,
+    targets: &[slothsim_skin::MorphTarget],
+) -> json::Index<json::Mesh> {
     use json::accessor::{ComponentType as C, Type as T};
     use json::buffer::Target::{ArrayBuffer, ElementArrayBuffer};
     let n = model.positions.len();
@@ -238,9 +340,27 @@ fn sloth_mesh(b: &mut Builder, model: &SlothModel) -> json::Index<json::Mesh> {
     attributes.insert(Valid(json::mesh::Semantic::Normals), normals);
     attributes.insert(Valid(json::mesh::Semantic::Joints(0)), joints);
     attributes.insert(Valid(json::mesh::Semantic::Weights(0)), weights);
+    let morphs: Vec<json::mesh::MorphTarget> = targets
+        .iter()
+        .map(|t| json::mesh::MorphTarget {
+            positions: Some(sparse_target(b, n, t)),
+            normals: None,
+            tangents: None,
+        })
+        .collect();
+    // `extras.targetNames`: the names Blender and three.js give the shape keys.
+    let names: Vec<&str> = targets.iter().map(|t| t.name.as_str()).collect();
+    let extras = (!targets.is_empty())
+        .then(|| {
+            json::extras::RawValue::from_string(
+                serde_json::json!({ "targetNames": names }).to_string(),
+            )
+            .ok()
+        })
+        .flatten();
     b.root.push(json::Mesh {
         extensions: None,
-        extras: None,
+        extras,
         name: Some("sloth".into()),
         primitives: vec![json::mesh::Primitive {
             attributes,
@@ -249,14 +369,94 @@ fn sloth_mesh(b: &mut Builder, model: &SlothModel) -> json::Index<json::Mesh> {
             indices: Some(indices),
             material: Some(material),
             mode: Valid(json::mesh::Mode::Triangles),
-            targets: None,
+            targets: (!morphs.is_empty()).then_some(morphs),
         }],
+        // No mesh default weights (zeros by the spec): every sloth node sets its own.
         weights: None,
     })
 }
 
-fn build(scene: &Scene, model: &SlothModel, rec: &Recording) -> Result<Document, ExportError> {
+/// A morph target's POSITION displacements as a sparse accessor over `n` vertices
+/// (zeros but for the target's vertices; min/max over all `n`, as the spec asks).
+fn sparse_target(
+    b: &mut Builder,
+    n: usize,
+    t: &slothsim_skin::MorphTarget,
+) -> json::Index<json::Accessor> {
+    use json::accessor::{ComponentType as C, Type as T, sparse};
+    let (mut min, mut max) = (Vec3::ZERO, Vec3::ZERO);
+    for d in &t.displacements {
+        min = min.min(*d);
+        max = max.max(*d);
+    }
+    let (index_bytes, index_type): (Vec<u8>, _) = if n <= usize::from(u16::MAX) {
+        let idx = t.vertices.iter().flat_map(|&v| (v as u16).to_le_bytes());
+        (idx.collect(), json::accessor::IndexComponentType(C::U16))
+    } else {
+        let idx = t.vertices.iter().flat_map(|&v| v.to_le_bytes());
+        (idx.collect(), json::accessor::IndexComponentType(C::U32))
+    };
+    let indices = b.data(&index_bytes, None);
+    let values: Vec<[f32; 3]> = t.displacements.iter().map(|d| d.to_array()).collect();
+    let values = b.data(&f32_bytes(&values), None);
+    b.root.push(json::Accessor {
+        buffer_view: None,
+        byte_offset: None,
+        count: USize64::from(n),
+        component_type: Valid(json::accessor::GenericComponentType(C::F32)),
+        extensions: None,
+        extras: None,
+        type_: Valid(T::Vec3),
+        min: Some(serde_json::json!(min.to_array())),
+        max: Some(serde_json::json!(max.to_array())),
+        name: None,
+        normalized: false,
+        sparse: Some(sparse::Sparse {
+            count: USize64::from(t.vertices.len()),
+            indices: sparse::Indices {
+                buffer_view: indices,
+                byte_offset: USize64(0),
+                component_type: Valid(index_type),
+                extensions: None,
+                extras: None,
+            },
+            values: sparse::Values {
+                buffer_view: values,
+                byte_offset: USize64(0),
+                extensions: None,
+                extras: None,
+            },
+            extensions: None,
+            extras: None,
+        }),
+    })
+}
+
+fn build(
+    scene: &Scene,
+    model: &SlothModel,
+    rec: &Recording,
+    correctives: Option<&Correctives>,
+) -> Result<Document, ExportError> {
     use json::accessor::{ComponentType as C, Type as T};
+    check_finite(model, rec)?;
+    let targets = correctives.map_or(&[][..], Correctives::targets);
+    if let Some(c) = correctives {
+        let n = c.mesh().positions.len();
+        if n != model.positions.len() {
+            return Err(ExportError::Targets(format!(
+                "built for a mesh of {n} vertices, the sloth model has {}",
+                model.positions.len()
+            )));
+        }
+    }
+    // The nodes' still pose: each sloth's weights at the first sample.
+    let first: Vec<TrackWeights> = match correctives {
+        Some(c) if !targets.is_empty() => c.first_weights(rec)?,
+        _ => Vec::new(),
+    };
+    let residual_m = first.iter().map(|w| w.residual_m).fold(0.0, f32::max);
+    let weights_len = samples_bytes(rec.times.len()) * targets.len();
     let (mut root, head) = slothsim_scene::export_document(scene);
     root.asset.generator = Some(concat!("slothsim-export ", env!("CARGO_PKG_VERSION")).into());
     let forest_nodes = root
@@ -270,7 +470,7 @@ fn build(scene: &Scene, model: &SlothModel, rec: &Recording) -> Result<Document,
     let samples = rec.times.len();
     let animated = samples >= 2;
 
-    let mesh = sloth_mesh(&mut b, model);
+    let mesh = sloth_mesh(&mut b, model, targets);
     let v = b.data(&f32_bytes(&model.inverse_bind), None);
     let ibm = b.accessor(v, 0, model.len(), C::F32, T::Mat4, None);
     let times = animated.then(|| {
@@ -290,11 +490,11 @@ fn build(scene: &Scene, model: &SlothModel, rec: &Recording) -> Result<Document,
     let mut channels = Vec::new();
     let mut samplers = Vec::new();
     let mut track_offset = b.head.len();
-    let track_len = rec.track_bytes();
+    let track_len = rec.track_bytes() + weights_len;
     let moved_slot: Vec<Option<usize>> = (0..model.len())
         .map(|j| rec.moved.iter().position(|&m| m == j))
         .collect();
-    for t in &rec.tracks {
+    for (ti, t) in rec.tracks.iter().enumerate() {
         let first_rot = |series: &[[f32; 4]]| series.first().copied();
         // Instance root: the body transform.
         let root_node = b.root.push(json::Node {
@@ -346,6 +546,7 @@ fn build(scene: &Scene, model: &SlothModel, rec: &Recording) -> Result<Document,
             name: Some(format!("sloth_{}_mesh", t.id)),
             mesh: Some(mesh),
             skin: Some(skin),
+            weights: first.get(ti).map(|w| w.weights.clone()),
             ..Default::default()
         });
         scene_nodes.push(root_node);
@@ -386,6 +587,36 @@ fn build(scene: &Scene, model: &SlothModel, rec: &Recording) -> Result<Document,
             channel(&mut b, root_node, Rotation, T::Vec4, 4);
             for &j in &rec.moved {
                 channel(&mut b, node_of(j), Rotation, T::Vec4, 4);
+            }
+            if !targets.is_empty() {
+                // One scalar per target per sample, sample-major.
+                let output = b.accessor(
+                    view,
+                    offset,
+                    samples * targets.len(),
+                    C::F32,
+                    T::Scalar,
+                    None,
+                );
+                let sampler = json::Index::new(samplers.len() as u32);
+                samplers.push(json::animation::Sampler {
+                    extensions: None,
+                    extras: None,
+                    input,
+                    interpolation: Valid(json::animation::Interpolation::Linear),
+                    output,
+                });
+                channels.push(json::animation::Channel {
+                    sampler,
+                    target: json::animation::Target {
+                        extensions: None,
+                        extras: None,
+                        node: mesh_node,
+                        path: Valid(json::animation::Property::MorphTargetWeights),
+                    },
+                    extensions: None,
+                    extras: None,
+                });
             }
             track_offset += track_len;
         }
@@ -441,5 +672,12 @@ fn build(scene: &Scene, model: &SlothModel, rec: &Recording) -> Result<Document,
         head: b.head,
         bin_len,
         animated,
+        targets: targets.len(),
+        residual_m,
     })
+}
+
+/// Bytes of one f32 per sample.
+fn samples_bytes(samples: usize) -> usize {
+    4 * samples
 }

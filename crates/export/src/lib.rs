@@ -5,7 +5,9 @@
 //!   sloth, its root's translation and rotation and the rotation of every
 //!   joint the simulation moves, LINEAR at the sample times (quaternions
 //!   normalised and sign-continuous). A single sample gives a still pose and
-//!   no animation.
+//!   no animation. With [`Skinning::Clusters`] (the CLI default) the sloth mesh
+//!   also carries corrective morph targets ([`Correctives`]) whose weights are
+//!   animated per sloth, so viewers show the control-cluster skinning.
 //! - [`TrajectoryCsv`]: one row per recorded sloth per sample (see
 //!   [`CSV_HEADER`] and `docs/export.md`).
 //! - [`AtomicFile`]: both are written under a temporary name in the target
@@ -16,12 +18,14 @@
 //! (its own sampler reads the state after a tick); nothing here knows the ECS.
 
 mod atomic;
+mod corrective;
 mod csv;
 mod glb;
 mod model;
 mod recording;
 
 pub use atomic::AtomicFile;
+pub use corrective::{Correctives, Skinning};
 pub use csv::{CSV_HEADER, TrajectoryCsv};
 pub use glb::{GlbSummary, glb_bytes, write_glb};
 pub use model::{ModelError, SlothModel};
@@ -42,4 +46,17 @@ pub enum ExportError {
     /// The binary chunk would exceed the 4 GiB a GLB can address.
     #[error("{0}")]
     TooLarge(String),
+    /// The corrective targets do not fit the sloth model.
+    #[error("corrective morph targets: {0}")]
+    Targets(String),
+    /// A recorded pose cannot be written (a non-finite value) or skinned.
+    #[error("sloth {sloth} at t = {time_s} s: {why}")]
+    Pose {
+        /// Sloth id.
+        sloth: u32,
+        /// Sample time (s).
+        time_s: f32,
+        /// What is wrong, naming the joint.
+        why: String,
+    },
 }

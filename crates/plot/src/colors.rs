@@ -30,6 +30,8 @@ pub const SLOTH_BODY: Rgba = Rgba::rgb(214, 96, 24);
 pub const SLOTH_EDGE: Rgba = Rgba::rgb(60, 25, 5);
 /// Sloth head (two-toed sloths have pale faces).
 pub const SLOTH_HEAD: Rgba = Rgba::rgb(250, 225, 185);
+/// Side view: the skinned sloth mesh's silhouette (fur).
+pub const SLOTH_FUR: Rgba = Rgba::rgb(150, 118, 84);
 /// Planted limbs (solid).
 pub const LIMB_PLANTED: Rgba = Rgba::rgb(70, 30, 10);
 /// Swinging limbs (dashed, lighter).

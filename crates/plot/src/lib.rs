@@ -4,7 +4,8 @@
 //!
 //! - [`draw_topdown`]: the forest from above with every sloth, its limbs, trails and one
 //!   sloth's step-search traces.
-//! - [`draw_side`]: one sloth's skeleton at several instants, seen from the side.
+//! - [`draw_side`]: one sloth's skeleton at several instants, seen from the side, over
+//!   the silhouette of its skinned mesh when the caller gives one.
 //! - [`draw_gait`]: Hildebrand gait diagram (contact phases per limb over time).
 //! - [`draw_frame_times`]: stacked per-stage frame times with the budget band and p50/p95.
 //! - [`save_png`]: atomic PNG write (temporary file + rename), errors name the path.

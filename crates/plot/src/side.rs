@@ -42,13 +42,19 @@ pub struct SideView<'a> {
     pub instants: &'a [SideInstant],
     /// Horizontal direction the camera looks along; `None` picks one (module docs).
     pub view_dir: Option<Vec3>,
-    /// World box to frame; `None` frames every pose point grown by `margin_m` (or the
-    /// whole scene when there are no poses).
+    /// World box to frame; `None` frames every pose point and silhouette vertex grown by
+    /// `margin_m` (or the whole scene when there are no poses).
     pub extent: Option<(Vec3, Vec3)>,
     /// Margin around the poses when `extent` is `None` (metres).
     pub margin_m: f32,
     /// Title prefix.
     pub title: String,
+    /// The skinned sloth mesh at each instant (world-space vertex positions, parallel to
+    /// `instants`; an empty entry or a short slice draws no mesh for that instant),
+    /// drawn as a filled silhouette under the skeleton.
+    pub silhouettes: &'a [Vec<Vec3>],
+    /// Triangles of the silhouette mesh (vertex indices, three per triangle).
+    pub silhouette_triangles: &'a [u32],
     /// Canvas width in pixels (clamped to `MIN_SIDE..=MAX_SIDE`).
     pub width: u32,
     /// Canvas height in pixels.
@@ -65,6 +71,8 @@ impl<'a> SideView<'a> {
             extent: None,
             margin_m: 0.6,
             title: String::from("side view"),
+            silhouettes: &[],
+            silhouette_triangles: &[],
             width: 1400,
             height: 1000,
         }
@@ -191,11 +199,16 @@ fn frame_box(input: &SideView) -> Option<(Vec3, Vec3)> {
     }
     let mut lo = Vec3::INFINITY;
     let mut hi = Vec3::NEG_INFINITY;
-    for i in input.instants {
-        for p in i.pose.points().filter(|p| p.is_finite()) {
-            lo = lo.min(p);
-            hi = hi.max(p);
-        }
+    let meshes = input.silhouettes.iter().flatten().copied();
+    for p in input
+        .instants
+        .iter()
+        .flat_map(|i| i.pose.points())
+        .chain(meshes)
+        .filter(|p| p.is_finite())
+    {
+        lo = lo.min(p);
+        hi = hi.max(p);
     }
     if lo.is_finite() && hi.is_finite() {
         let m = if input.margin_m.is_finite() {
@@ -273,7 +286,7 @@ pub fn draw_side(input: &SideView) -> Pixmap {
         }
         grid.stroke(&mut pm, c::GRID, 1.0);
         draw_supports(&mut pm, &proj, input.scene);
-        draw_poses(&mut pm, &proj, input.instants);
+        draw_poses(&mut pm, &proj, input);
         (tu.into_iter().map(|u| (u, step)).collect(), tv)
     } else {
         (Vec::new(), Vec::new())
@@ -404,7 +417,29 @@ fn round_cone(batch: &mut Batch, a: (f32, f32), b: (f32, f32), ra: f32, rb: f32)
     }
 }
 
-fn draw_poses(pm: &mut Pixmap, proj: &SideProjection, instants: &[SideInstant]) {
+/// The silhouette of one skinned mesh: every triangle projected (consistently oriented,
+/// so they add up under the non-zero rule), filled at once. Triangles with a vertex out
+/// of range or non-finite are skipped.
+fn draw_silhouette(
+    pm: &mut Pixmap,
+    proj: &SideProjection,
+    vertices: &[Vec3],
+    triangles: &[u32],
+    alpha: u8,
+) {
+    let px: Vec<(f32, f32)> = vertices.iter().map(|p| proj.to_px(*p)).collect();
+    let mut fur = Batch::new();
+    for t in triangles.chunks_exact(3) {
+        let corner = |k: usize| px.get(t[k] as usize).copied();
+        if let (Some(a), Some(b), Some(c)) = (corner(0), corner(1), corner(2)) {
+            fur.polygon(&[a, b, c]);
+        }
+    }
+    fur.fill(pm, c::SLOTH_FUR.with_alpha(alpha));
+}
+
+fn draw_poses(pm: &mut Pixmap, proj: &SideProjection, input: &SideView) {
+    let instants = input.instants;
     let s = proj.scale_px_per_m;
     let n = instants.len();
     let spine_w = (0.03 * s).clamp(3.0, 10.0);
@@ -420,6 +455,15 @@ fn draw_poses(pm: &mut Pixmap, proj: &SideProjection, instants: &[SideInstant]) 
             1.0
         };
         let alpha = (70.0 + 185.0 * age) as u8;
+        if let Some(mesh) = input.silhouettes.get(i).filter(|m| !m.is_empty()) {
+            draw_silhouette(
+                pm,
+                proj,
+                mesh,
+                input.silhouette_triangles,
+                (alpha / 2).max(30),
+            );
+        }
         let mut spine = Batch::new();
         spine.line(proj.to_px(p.hips_ws), proj.to_px(p.head_ws));
         spine.stroke(pm, c::SPINE.with_alpha(alpha), spine_w);
@@ -473,7 +517,8 @@ fn draw_poses(pm: &mut Pixmap, proj: &SideProjection, instants: &[SideInstant]) 
 }
 
 fn side_legend(pm: &mut Pixmap, x: f32, y: f32) {
-    let items: [(&str, Rgba, u8); 6] = [
+    let items: [(&str, Rgba, u8); 7] = [
+        ("skinned mesh", c::SLOTH_FUR.with_alpha(128), 3),
         ("spine + head", c::SPINE, 0),
         ("left limbs (LF, LH)", c::LEFT_LIMB, 0),
         ("right limbs (RF, RH)", c::RIGHT_LIMB, 0),
@@ -491,6 +536,10 @@ fn side_legend(pm: &mut Pixmap, x: f32, y: f32) {
             }
             1 => {
                 sw.circle((ix + 11.0, y), 4.0);
+                sw.fill(pm, col);
+            }
+            3 => {
+                sw.rect(ix, y - 5.0, ix + 22.0, y + 5.0);
                 sw.fill(pm, col);
             }
             _ => {

@@ -567,3 +567,68 @@ fn forest_branches_are_height_coloured() {
     assert!(count_colour(&pm, Rgba::rgb(0, 40, 100), 30) > 50);
     assert!(distinct_colours(&pm) > 40);
 }
+
+#[test]
+fn side_view_draws_the_skinned_silhouette_where_the_mesh_is() {
+    let dir = out_dir("side-silhouette");
+    let pole = Preset::by_name("pole", None).unwrap();
+    let walk = common::walk(pole.start.position, pole.start.forward, 0.02, 1, 16.0);
+    let inst: Vec<SideInstant> = walk
+        .iter()
+        .map(|(t, p)| SideInstant {
+            time_s: *t,
+            pose: *p,
+        })
+        .collect();
+    // A box 0.4 m long, 0.2 m high, 0.6 m below the body: away from the skeleton.
+    let c = inst[0].pose.body_pos - Vec3::new(0.0, 0.6, 0.0);
+    let h = Vec3::new(0.2, 0.1, 0.1);
+    let corners: Vec<Vec3> = (0..8)
+        .map(|i| {
+            c + Vec3::new(
+                if i & 1 == 0 { -h.x } else { h.x },
+                if i & 2 == 0 { -h.y } else { h.y },
+                if i & 4 == 0 { -h.z } else { h.z },
+            )
+        })
+        .collect();
+    #[rustfmt::skip]
+    let mut tris: Vec<u32> = vec![
+        0, 1, 3, 0, 3, 2, 4, 6, 7, 4, 7, 5, 0, 4, 5, 0, 5, 1,
+        2, 3, 7, 2, 7, 6, 0, 2, 6, 0, 6, 4, 1, 5, 7, 1, 7, 3,
+    ];
+    // Bad triangles are skipped: an index past the vertices, a non-finite vertex.
+    tris.extend([0, 1, 99]);
+    let mut verts = corners.clone();
+    verts.push(Vec3::NAN);
+    tris.extend([0, 1, 8]);
+    let meshes = vec![verts];
+    let mut sv = SideView::new(&pole.scene, &inst);
+    sv.silhouettes = &meshes;
+    sv.silhouette_triangles = &tris;
+    let pm = roundtrip(&draw_side(&sv), &dir, "side.png");
+    let proj = side_projection(&sv);
+    let fur = colors::SLOTH_FUR.with_alpha(127).over(colors::PANEL);
+    assert!(
+        count_near(&pm, proj.to_px(c), 5, fur, 6) > 80,
+        "fur at the box"
+    );
+    // Nowhere outside the box's projection (grown by 3 px of anti-aliasing).
+    let (lo, hi) = (proj.to_px(c - h), proj.to_px(c + h));
+    let (x0, x1) = (lo.0.min(hi.0) - 3.0, lo.0.max(hi.0) + 3.0);
+    let (y0, y1) = (lo.1.min(hi.1) - 3.0, lo.1.max(hi.1) + 3.0);
+    let mut outside = 0;
+    for y in 0..pm.height() as i64 {
+        for x in 0..pm.width() as i64 {
+            let inside = (x0..=x1).contains(&(x as f32)) && (y0..=y1).contains(&(y as f32));
+            if !inside && rgb(&pm, x, y).is_some_and(|p| close(p, fur, 3)) {
+                outside += 1;
+            }
+        }
+    }
+    assert!(outside < 20, "{outside} fur pixels outside the box");
+    // Without a mesh: no fur at the box.
+    sv.silhouettes = &[];
+    let pm = draw_side(&sv);
+    assert_eq!(count_near(&pm, proj.to_px(c), 5, fur, 6), 0);
+}

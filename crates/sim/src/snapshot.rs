@@ -39,6 +39,9 @@ pub struct SlothPose {
     pub hips_ws: Vec3,
     /// Limbs in [`slothsim_rig::Limb::index`] order (`LF, RF, LH, RH`).
     pub limbs: [LimbPose; 4],
+    /// Local rotations (relative to the parent joint) of each limb's four chain joints,
+    /// as recorded for the export (`record::moved_joints` order): what skins the mesh.
+    pub limb_locals: [[Quat; 4]; 4],
 }
 
 /// A pose and its simulated time (seconds).
@@ -76,6 +79,10 @@ pub fn sloth_pose(s: &Sloth, loco: &Locomotion) -> SlothPose {
             planted: l.phase != LimbPhase::Swinging,
         }
     });
+    let chains = &rig.chains;
+    let limb_locals = std::array::from_fn(|li| {
+        std::array::from_fn(|j| chains[li].local_rotation(&s.limbs[li].pose, j))
+    });
     SlothPose {
         id: s.id,
         body_pos: s.body_pos,
@@ -83,6 +90,7 @@ pub fn sloth_pose(s: &Sloth, loco: &Locomotion) -> SlothPose {
         head_ws: to_ws(rig.head_ms),
         hips_ws: to_ws(rig.hips_ms),
         limbs,
+        limb_locals,
     }
 }
 

@@ -42,7 +42,7 @@ fn phi(r: f32, sigma: f32) -> f32 {
 }
 
 /// Rotation vector of `q` (axis × angle, angle in [0, π]).
-fn rotation_vector(q: Quat) -> Vec3 {
+pub(crate) fn rotation_vector(q: Quat) -> Vec3 {
     let q = if q.w < 0.0 { -q } else { q };
     let (axis, angle) = q.to_axis_angle();
     axis * angle
@@ -109,6 +109,18 @@ impl ClusterSkin {
             }
             let parent = mesh.rig.limb_joints(lj.limb).joints[lj.element - 1];
             let vertices: Vec<usize> = r.pairs.iter().flatten().copied().collect();
+            if vertices.is_empty() {
+                return Err(rerr("no control clusters (empty `pairs`)".into()));
+            }
+            for (k, &v) in vertices.iter().enumerate() {
+                if vertices[..k].contains(&v) {
+                    return Err(SkinError::Cluster {
+                        joint: name.clone(),
+                        vertex: v,
+                        why: "named by two clusters (it would be corrected twice)".into(),
+                    });
+                }
+            }
             for &v in &vertices {
                 let cerr = |why: &str| SkinError::Cluster {
                     joint: name.clone(),

@@ -9,10 +9,12 @@ mod error;
 mod lbs;
 pub mod measure;
 mod mesh;
+mod morph;
 pub mod sculpt;
 
 pub use cluster::{ClusterSkin, DEFAULT_TENSION};
 pub use error::SkinError;
 pub use lbs::Posed;
 pub use mesh::{LIMB_RINGS, LIMB_SIDES, SkinMesh};
+pub use morph::{CorrectiveTargets, MorphScratch, MorphTarget};
 pub use sculpt::{JointReferences, LimbJoint, ReferenceShapes, reference_shapes};
