@@ -3,7 +3,7 @@
 //! sloth and what no stage writes during the tick (forest, config, the
 //! neighbour grid of the last tick), so they run as one parallel pass over
 //! whole table slices (`contiguous_par_iter_mut` on bevy's compute task pool):
-//! a worker takes [`CHUNK`] sloths through all five stages, then the next
+//! a worker takes `CHUNK` (32) sloths through all five stages, then the next
 //! ones (CcdSolve solves the sloths of a chunk two by two in SIMD lanes). Then
 //! the serial end of Transitions rebuilds the neighbour grid. The same bits as
 //! five stages over the whole crowd one after another, with one fork/join a
