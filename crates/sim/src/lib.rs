@@ -1,7 +1,7 @@
 //! The simulation: the only bevy_ecs crate. One sloth = one entity; the tick
-//! is one schedule of six chained stages (see [`schedule`]); each stage runs
-//! its per-sloth kernel (from `slothsim-gait`) in parallel over all sloths and
-//! times itself into [`StageTimings`]. [`crowd`] is the main job: a crowd of
+//! is one schedule of six stages (see [`schedule`]), run as one parallel pass
+//! of the per-sloth kernels (from `slothsim-gait`) over all sloths, each stage
+//! timed into [`StageTimings`]. [`crowd`] is the main job: a crowd of
 //! wandering sloths on a forest; [`scenario`] runs one sloth on a preset.
 
 pub mod baseline;

@@ -1,7 +1,13 @@
-//! The tick, in one place: six chained stages, each one system that runs its
-//! kernel over every sloth in parallel (`par_iter_mut` on bevy's compute task
-//! pool; CcdSolve takes whole table slices with `contiguous_par_iter_mut`, to
-//! solve sloths two by two in SIMD lanes) and records its wall time.
+//! The tick, in one place: six stages in order — Trace, StepSearch,
+//! BodyAverage, CcdSolve, GripLoad, Transitions. Each stage of a sloth reads only that
+//! sloth and what no stage writes during the tick (forest, config, the
+//! neighbour grid of the last tick), so they run as one parallel pass over
+//! whole table slices (`contiguous_par_iter_mut` on bevy's compute task pool):
+//! a worker takes `CHUNK` (32) sloths through all six stages, then the next
+//! ones (CcdSolve solves the sloths of a chunk two by two in SIMD lanes). Then
+//! the serial end of Transitions rebuilds the neighbour grid. The same bits as
+//! six stages over the whole crowd one after another, with one fork/join a
+//! tick instead of six and each sloth's state fetched from memory once.
 //!
 //! Order differs from a naive reading of DESIGN.md in one place: BodyAverage
 //! runs *before* CcdSolve, so every limb is solved from the chain roots of the
@@ -12,7 +18,6 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Instant;
 
 use bevy_ecs::batching::BatchingStrategy;
-use bevy_ecs::change_detection::ContiguousMut;
 use bevy_ecs::prelude::*;
 use bevy_ecs::schedule::SingleThreadedExecutor;
 use bevy_tasks::{ComputeTaskPool, TaskPoolBuilder};
@@ -23,7 +28,9 @@ use crate::world::{
     SimClock, SlothId, SlothState, Traces, crowd_points,
 };
 
-/// The stages of one tick, in order.
+/// The stages of one tick, in order. The first five and the parallel part
+/// of Transitions run in one system in [`SimSystems::Trace`] (see the module
+/// docs); the neighbour grid's rebuild is in [`SimSystems::Transitions`].
 #[derive(SystemSet, Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum SimSystems {
     /// Run every sloth's queued trace requests against the forest BVH.
@@ -86,135 +93,198 @@ fn ms(start: Instant) -> f64 {
     start.elapsed().as_secs_f64() * 1e3
 }
 
-fn trace_stage(
-    loco: Res<Locomotion>,
-    mut q: Query<&mut Traces>,
-    mut timings: ResMut<StageTimings>,
-) {
-    let t = Instant::now();
-    let query = loco.traces.query();
-    q.par_iter_mut()
-        .batching_strategy(BATCHING)
-        .for_each(|mut tr| tr.0.run(&query));
-    timings.traces_last = q.iter().map(|t| t.0.len as u64).sum();
-    timings.traces_total += timings.traces_last;
-    timings.last[0] = ms(t);
+/// Sloths a worker takes through all six stages before the next ones: their
+/// state (about 2.4 KB a sloth) stays in the core's cache from one stage to the
+/// next instead of being fetched from memory six times a frame.
+const CHUNK: usize = 32;
+
+/// What the workers of one pass add up: nanoseconds per stage, traces run,
+/// CCD sweeps (integer sums: the same for any order of the workers).
+#[derive(Default)]
+struct PassTotals {
+    stage_ns: [AtomicU64; STAGES],
+    traces: AtomicU64,
+    iterations: AtomicU64,
 }
 
-fn step_search_stage(
+impl PassTotals {
+    fn add(&self, ns: [u64; STAGES], traces: u64, iterations: u64) {
+        for (a, n) in self.stage_ns.iter().zip(ns) {
+            a.fetch_add(n, Ordering::Relaxed);
+        }
+        self.traces.fetch_add(traces, Ordering::Relaxed);
+        self.iterations.fetch_add(iterations, Ordering::Relaxed);
+    }
+}
+
+/// A stopwatch over the stages of a chunk: `lap(k)` adds the time since the
+/// last lap to stage `k`.
+struct Laps {
+    last: Instant,
+    ns: [u64; STAGES],
+}
+
+impl Laps {
+    fn new() -> Self {
+        Laps {
+            last: Instant::now(),
+            ns: [0; STAGES],
+        }
+    }
+
+    fn lap(&mut self, k: usize) {
+        let now = Instant::now();
+        self.ns[k] += (now - self.last).as_nanos() as u64;
+        self.last = now;
+    }
+}
+
+/// The sloths' part of the tick: every sloth through Trace, StepSearch,
+/// BodyAverage, CcdSolve, GripLoad and Transitions, [`CHUNK`] sloths at a time per
+/// worker, in one parallel pass. Each stage of a sloth reads only that
+/// sloth's state and what no stage writes (the forest, the config, the
+/// neighbour grid of the last frame, rebuilt after the pass), so a sloth ends
+/// the frame exactly as the six stages run one after another over the whole
+/// crowd would leave it; one fork/join a frame instead of six, and each
+/// sloth's state is fetched once. The stages' times are the pass's wall time
+/// shared in proportion to each stage's summed time over the workers.
+#[allow(clippy::type_complexity)]
+fn sloth_pass(
     loco: Res<Locomotion>,
     crowd: Option<Res<CrowdNeighbours>>,
-    mut q: Query<(&mut SlothState, &mut Traces)>,
-    mut timings: ResMut<StageTimings>,
-) {
-    let t = Instant::now();
-    let w = loco.view_in(crowd.as_deref());
-    q.par_iter_mut()
-        .batching_strategy(BATCHING)
-        .for_each(|(mut s, mut tr)| s.0.step_search(&w, &mut tr.0));
-    timings.last[1] = ms(t);
-}
-
-fn body_average_stage(
-    loco: Res<Locomotion>,
-    clock: Res<SimClock>,
-    mut q: Query<(&mut SlothState, &mut BodyAverageMemo)>,
-    mut timings: ResMut<StageTimings>,
-) {
-    let t = Instant::now();
-    let w = loco.view();
-    let dt = clock.dt;
-    q.par_iter_mut()
-        .batching_strategy(BATCHING)
-        .for_each(|(mut s, mut m)| s.0.body_average_memo(&w, dt, &mut m.0));
-    timings.last[2] = ms(t);
-}
-
-fn ccd_stage(
-    loco: Res<Locomotion>,
-    mut q: Query<(&mut SlothState, &mut CcdMemo)>,
-    mut timings: ResMut<StageTimings>,
-) {
-    let t = Instant::now();
-    let w = loco.view();
-    // An integer sum: the same for any order of the workers (deterministic).
-    let iterations = AtomicU64::new(0);
-    // Whole table slices, so the sloths to solve share the SIMD lanes of one
-    // solve two by two (`Sloth::solve_limbs_batch`: each ends exactly as its
-    // own solve would leave it, so the batching cannot change a bit).
-    let batch = |(mut states, mut memos): (ContiguousMut<SlothState>, ContiguousMut<CcdMemo>)| {
-        let n = Sloth::solve_limbs_batch(&mut states, &mut memos, &w);
-        iterations.fetch_add(n, Ordering::Relaxed);
-    };
-    match q.contiguous_par_iter_mut() {
-        Ok(it) => it.batching_strategy(BATCHING).for_each(batch),
-        // Not dense (a sparse-set component was added): one sloth at a time.
-        Err(_) => q
-            .par_iter_mut()
-            .batching_strategy(BATCHING)
-            .for_each(|(mut s, mut m)| {
-                let n = s.0.solve_limbs_memo(&w, &mut m.0);
-                iterations.fetch_add(n as u64, Ordering::Relaxed);
-            }),
-    }
-    timings.last[3] = ms(t);
-    timings.ccd_iterations_last = iterations.into_inner();
-    timings.ccd_iterations_total += timings.ccd_iterations_last;
-}
-
-fn grip_load_stage(
-    loco: Res<Locomotion>,
     clock: Res<SimClock>,
     every: Option<Res<GripLoadEvery>>,
-    mut q: Query<(&mut SlothState, &mut GripLoad)>,
+    mut q: Query<(
+        &mut SlothState,
+        &mut Traces,
+        &mut BodyAverageMemo,
+        &mut CcdMemo,
+        &mut GripLoad,
+        &mut CrowdPoints,
+    )>,
     mut timings: ResMut<StageTimings>,
 ) {
     let t = Instant::now();
-    let w = loco.view();
     let dt = clock.dt;
     let every = every.map_or(1, |e| e.0);
-    q.par_iter_mut()
-        .batching_strategy(BATCHING)
-        .for_each(|(mut s, mut g)| {
-            if let Some(loads) = s.0.grip_load(&w, dt, every) {
-                g.0 = loads;
-            }
-        });
-    timings.last[4] = ms(t);
-}
-
-fn transitions_stage(
-    loco: Res<Locomotion>,
-    mut crowd: Option<ResMut<CrowdNeighbours>>,
-    mut clock: ResMut<SimClock>,
-    mut q: Query<(&SlothId, &mut SlothState, &mut Traces, &mut CrowdPoints)>,
-    mut timings: ResMut<StageTimings>,
-) {
-    let t = Instant::now();
-    let dt = clock.dt;
+    let totals = PassTotals::default();
     {
-        let w = loco.view_in(crowd.as_deref());
-        let grid = w.crowd;
+        let query = loco.traces.query();
+        let searching = loco.view_in(crowd.as_deref());
+        let w = loco.view();
+        let grid = searching.crowd;
         let rig = &loco.rig;
-        q.par_iter_mut()
-            .batching_strategy(BATCHING)
-            .for_each(|(_, mut s, mut tr, mut pts)| {
-                s.0.transitions(&w, dt, &mut tr.0);
+        let chunk = |states: &mut [SlothState],
+                     traces: &mut [Traces],
+                     bodies: &mut [BodyAverageMemo],
+                     solves: &mut [CcdMemo],
+                     loads: &mut [GripLoad],
+                     points: &mut [CrowdPoints]| {
+            let mut laps = Laps::new();
+            let mut traced = 0;
+            for tr in traces.iter_mut() {
+                tr.0.run(&query);
+                traced += tr.0.len as u64;
+            }
+            laps.lap(0);
+            for (s, tr) in states.iter_mut().zip(traces.iter_mut()) {
+                s.0.step_search(&searching, &mut tr.0);
+            }
+            laps.lap(1);
+            for (s, m) in states.iter_mut().zip(bodies.iter_mut()) {
+                s.0.body_average_memo(&w, dt, &mut m.0);
+            }
+            laps.lap(2);
+            // Sloths to solve share the SIMD lanes of one solve two by two
+            // (`Sloth::solve_limbs_batch`: each ends exactly as its own solve
+            // would leave it, so the pairing cannot change a bit).
+            let iterations = Sloth::solve_limbs_batch(states, solves, &w);
+            laps.lap(3);
+            for (s, g) in states.iter_mut().zip(loads.iter_mut()) {
+                if let Some(l) = s.0.grip_load(&w, dt, every) {
+                    g.0 = l;
+                }
+            }
+            laps.lap(4);
+            for ((s, tr), pts) in states.iter_mut().zip(traces).zip(points) {
+                s.0.transitions(&searching, dt, &mut tr.0);
                 // The neighbour grid's points, hashed here in parallel.
                 if let Some(g) = grid {
                     pts.0 = crowd_points(rig, &s.0).map(|p| g.hashed(p));
                 }
-            });
+            }
+            laps.lap(5);
+            totals.add(laps.ns, traced, iterations);
+        };
+        match q.contiguous_par_iter_mut() {
+            Ok(it) => it.batching_strategy(BATCHING).for_each(
+                |(mut states, mut traces, mut bodies, mut solves, mut loads, mut points)| {
+                    // Once a batch: each `DerefMut` marks the whole batch changed.
+                    let (states, traces, bodies, solves, loads, points) = (
+                        &mut *states,
+                        &mut *traces,
+                        &mut *bodies,
+                        &mut *solves,
+                        &mut *loads,
+                        &mut *points,
+                    );
+                    let n = states.len();
+                    for a in (0..n).step_by(CHUNK) {
+                        let b = (a + CHUNK).min(n);
+                        chunk(
+                            &mut states[a..b],
+                            &mut traces[a..b],
+                            &mut bodies[a..b],
+                            &mut solves[a..b],
+                            &mut loads[a..b],
+                            &mut points[a..b],
+                        );
+                    }
+                },
+            ),
+            // Not dense (a sparse-set component was added): one sloth at a time.
+            Err(_) => q.par_iter_mut().batching_strategy(BATCHING).for_each(
+                |(mut s, mut tr, mut b, mut m, mut g, mut p)| {
+                    chunk(
+                        std::slice::from_mut(&mut *s),
+                        std::slice::from_mut(&mut *tr),
+                        std::slice::from_mut(&mut *b),
+                        std::slice::from_mut(&mut *m),
+                        std::slice::from_mut(&mut *g),
+                        std::slice::from_mut(&mut *p),
+                    );
+                },
+            ),
+        }
     }
+    let pass_ms = ms(t);
+    let stage_ns = totals.stage_ns.map(AtomicU64::into_inner);
+    let busy = stage_ns.iter().sum::<u64>().max(1) as f64;
+    timings.last = stage_ns.map(|ns| pass_ms * ns as f64 / busy);
+    timings.traces_last = totals.traces.into_inner();
+    timings.traces_total += timings.traces_last;
+    timings.ccd_iterations_last = totals.iterations.into_inner();
+    timings.ccd_iterations_total += timings.ccd_iterations_last;
+}
+
+/// The end of the tick, after [`sloth_pass`]: the neighbour grid rebuilt from
+/// the points the pass hashed (counted in Transitions' time), the frame count.
+fn grid_rebuild(
+    mut crowd: Option<ResMut<CrowdNeighbours>>,
+    mut clock: ResMut<SimClock>,
+    q: Query<(&SlothId, &CrowdPoints)>,
+    mut timings: ResMut<StageTimings>,
+) {
+    let t = Instant::now();
     // Sloths meet sloths: the next tick reads this tick's bodies and grips.
     // The same grid as `CrowdNeighbours::rebuild` of the sloths (id order).
     if let Some(crowd) = crowd.as_deref_mut() {
         crowd
             .grid
-            .rebuild_hashed(q.iter().map(|(id, _, _, pts)| (id.0, &pts.0)));
+            .rebuild_hashed(q.iter().map(|(id, pts)| (id.0, &pts.0)));
     }
     clock.frame += 1;
-    timings.last[5] = ms(t);
+    timings.last[5] += ms(t);
     let last = timings.last;
     timings.history.push(last);
 }
@@ -237,13 +307,11 @@ pub fn build_schedule() -> Schedule {
         )
             .chain(),
     );
+    // The six stages run as one per-sloth pass (see `sloth_pass`), then
+    // the serial end of Transitions.
     s.add_systems((
-        trace_stage.in_set(SimSystems::Trace),
-        step_search_stage.in_set(SimSystems::StepSearch),
-        body_average_stage.in_set(SimSystems::BodyAverage),
-        ccd_stage.in_set(SimSystems::CcdSolve),
-        grip_load_stage.in_set(SimSystems::GripLoad),
-        transitions_stage.in_set(SimSystems::Transitions),
+        sloth_pass.in_set(SimSystems::Trace),
+        grid_rebuild.in_set(SimSystems::Transitions),
     ));
     s
 }
