@@ -72,7 +72,7 @@
 //! stages read (`Locomotion`, `SimClock`, `StageTimings`, the memos; add
 //! `CrowdNeighbours` for crowds), [`sim::spawn_sloth`] adds a sloth entity
 //! (`SlothId`, `SlothState`, `Traces`), and [`sim::build_schedule`] is the tick:
-//! five chained [`sim::SimSystems`] sets (the per-sloth work in one pass in
+//! six chained [`sim::SimSystems`] sets (the per-sloth work in one pass in
 //! the first, the neighbour grid's rebuild in the last), to run as a schedule
 //! or to order against the app's own systems.
 
