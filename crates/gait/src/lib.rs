@@ -22,5 +22,6 @@ pub use env::{IK_TOLERANCE_M, LocoEnv, LocoView, crowd_points};
 pub use path::{Adjacency, AxisPoint, axis_at, project, surface_gap};
 pub use rigdata::RigData;
 pub use sloth::{
-    BodyMemo, Fallback, Grip, LimbPhase, LimbState, Sloth, SolveMemo, SpawnHint, Status, TraceBatch,
+    BodyMemo, Fallback, Grip, LimbPhase, LimbState, Sloth, SolveMemo, SpawnHint, Status,
+    StuckCause, TraceBatch,
 };

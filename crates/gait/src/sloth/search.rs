@@ -9,7 +9,9 @@ use slothsim_rig::Limb;
 use super::body::{BodySide, body_offset};
 use super::candidate::CandidateAt;
 use super::route::search_ahead;
-use super::{Fallback, Grip, LimbPhase, LocoView, MAX_TRACES, Search, Sloth, Status, TraceBatch};
+use super::{
+    Fallback, Grip, LimbPhase, LocoView, MAX_TRACES, Search, Sloth, Status, StuckCause, TraceBatch,
+};
 
 /// Reach-checked step-search candidates per limb per frame.
 const MAX_REACH_CHECKS_PER_FRAME: u32 = 8;
@@ -170,6 +172,7 @@ impl Sloth {
             }
             self.failed_searches = 0;
             self.stalled_turns = 0;
+            self.stuck_cause = None;
         }
         batch.len = 0;
         for li in 0..4 {
@@ -266,6 +269,7 @@ impl Sloth {
                 if self.failed_searches >= env.cfg.stop_after_failed_searches
                     && self.status == Status::Moving
                 {
+                    self.stuck_cause = Some(self.diagnose_stuck(env));
                     // Wander mode: turn back, unless turning back already
                     // failed to bring a step (tail-first walking is mostly out
                     // of the limbs' reach: see README); then stop here.
@@ -484,5 +488,47 @@ impl Sloth {
         l.due = false;
         self.failed_searches = 0;
         self.stalled_turns = 0;
+        self.stuck_cause = None;
+    }
+
+    /// Why no limb found a step (called when the search gives up): a
+    /// transfer under way; other sloths in the way (some limb has a step
+    /// once they are ignored), after a turn back in both directions; the
+    /// leading limbs within a search distance of their support's end; else
+    /// nothing within reach.
+    fn diagnose_stuck(&self, env: &LocoView<'_>) -> StuckCause {
+        if self.transfer.is_some() {
+            return StuckCause::TransferFailed;
+        }
+        if env.crowd.is_some() {
+            let alone = LocoView {
+                crowd: None,
+                ..*env
+            };
+            if (0..4).any(|lj| self.has_step(&alone, lj)) {
+                return if self.stalled_turns > 0 {
+                    StuckCause::BoxedIn
+                } else {
+                    StuckCause::Crowded
+                };
+            }
+        }
+        if self.at_support_end(env) {
+            StuckCause::Tip
+        } else {
+            StuckCause::NoGrip
+        }
+    }
+
+    /// Whether a leading limb holds its support within one search distance
+    /// (plus the end margin) of the support's end it travels toward.
+    pub(super) fn at_support_end(&self, env: &LocoView<'_>) -> bool {
+        let scene = env.scene();
+        Limb::ALL.iter().any(|&limb| {
+            let g = self.limbs[limb.index()].grip;
+            let len = scene.support(g.support).length();
+            let left = if g.sdir > 0.0 { len - g.u } else { g.u };
+            self.leads(limb) && left < env.cfg.search_distance_m + env.cfg.end_margin_m
+        })
     }
 }

@@ -112,6 +112,7 @@ impl Sloth {
             turns: 0,
             stalled_turns: 0,
             resume_at: None,
+            stuck_cause: None,
             transfer: None,
             hind_back_scale: 1.0,
             hang_side: Vec3::ZERO,
