@@ -142,7 +142,9 @@ impl Sloth {
                     },
                 )
             });
-            if !self.leaves_a_step(env, li, grip, pair_grip) {
+            // Stuck (a search gave up since the last step): any step that
+            // passes its checks changes the stance, and may unlock it.
+            if self.stuck_cause.is_none() && !self.leaves_a_step(env, li, grip, pair_grip) {
                 continue;
             }
             for (lj, g) in std::iter::once((li, grip)).chain(pair_grip) {
@@ -207,7 +209,15 @@ impl Sloth {
             // are then tried farthest first, so the farthest valid grip is
             // found at about a third of the checks.
             let fine = env.cfg.backoff_m;
-            let coarse = fine * COARSE_STRIDE as f32;
+            // Stuck (a search gave up since the last step): every back-off
+            // point is tried, so a window of valid grips narrower than the
+            // coarse stride is not stepped over.
+            let stride = if self.stuck_cause.is_some() {
+                1
+            } else {
+                COARSE_STRIDE
+            };
+            let coarse = fine * stride as f32;
             let in_range =
                 |u: f32| (env.cfg.end_margin_m..=len - env.cfg.end_margin_m).contains(&u);
             while queued < CANDIDATES_PER_LIMB
@@ -224,7 +234,7 @@ impl Sloth {
                 let Some(mut found) = check(cand_u) else {
                     continue;
                 };
-                for j in (1..COARSE_STRIDE).rev() {
+                for j in (1..stride).rev() {
                     let fu = cand_u + sr.sdir * fine * j as f32;
                     if (fu - sr.first_u) * sr.sdir > 1e-6 || !in_range(fu) {
                         continue;
