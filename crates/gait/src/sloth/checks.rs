@@ -151,6 +151,29 @@ impl Sloth {
         let from = self.limbs.map(|l| (l.grip.point, l.grip.normal));
         let mut weights = self.trunk_weights(env);
         let pair = steps.len() > 1;
+        // A step that takes the last limb off a transfer's target (a turn
+        // back undoing it) ends the transfer when it lands (see
+        // `finish_transfer`): from then on the body is drawn without the
+        // transfer's roll, so the end stance is checked that way (checked
+        // rolled, an undone transfer left a crowd sloth's body 16 mm in a
+        // support).
+        let ended = self
+            .transfer
+            .filter(|t| {
+                (0..4).all(|k| {
+                    let held = if steps.iter().any(|s| s.0 == k) {
+                        support
+                    } else {
+                        self.limbs[k].grip.support
+                    };
+                    held != t.to
+                })
+            })
+            .map(|_| Sloth {
+                transfer: None,
+                ..*self
+            });
+        let after = ended.as_ref().unwrap_or(self);
         // Points of the arc as `body_average` will draw them (`Some(t)`), or the end.
         let mut stance_at = |at: Option<f32>| {
             let mut tol;
@@ -182,7 +205,8 @@ impl Sloth {
             }
             let mut offset = body_offset(env, weights);
             offset.hind_back_m = offset_back;
-            self.stance_check(env, grips, tol, offset)
+            let me = if at.is_none() { after } else { self };
+            me.stance_check(env, grips, tol, offset)
         };
         let stances: [StanceCheck; STANCE_CHECKS] =
             std::array::from_fn(|k| stance_at(SWING_CHECKS.get(k).copied()));

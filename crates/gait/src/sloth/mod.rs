@@ -168,6 +168,49 @@ pub enum Status {
     NoGrip,
 }
 
+/// Why a sloth's step search last found nothing anywhere (every limb, its
+/// own support, its neighbours and a retreat), judged when it happened
+/// (`Sloth::stuck_cause`; `stats.json` counts stuck sloths by it).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum StuckCause {
+    /// At the free end of its support (a branch tip, a trunk's top or foot)
+    /// with no other support within reach.
+    Tip,
+    /// Other sloths hold every step it had, in both directions (it had
+    /// already turned back).
+    BoxedIn,
+    /// In the middle of a branch ↔ trunk transfer.
+    TransferFailed,
+    /// Other sloths hold every step it had ahead (without them a step passes).
+    Crowded,
+    /// No grip within reach passes the checks, with no other sloth in the
+    /// way and away from a support end.
+    NoGrip,
+}
+
+impl StuckCause {
+    /// Every cause, in the order `stats.json` lists them.
+    pub const ALL: [StuckCause; 5] = [
+        StuckCause::Tip,
+        StuckCause::BoxedIn,
+        StuckCause::TransferFailed,
+        StuckCause::Crowded,
+        StuckCause::NoGrip,
+    ];
+
+    /// The name `stats.json` uses.
+    pub fn name(self) -> &'static str {
+        match self {
+            StuckCause::Tip => "tip",
+            StuckCause::BoxedIn => "boxed_in",
+            StuckCause::TransferFailed => "transfer_failed",
+            StuckCause::Crowded => "crowded",
+            StuckCause::NoGrip => "no_grip",
+        }
+    }
+}
+
 /// One sloth.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Sloth {
@@ -238,6 +281,10 @@ pub struct Sloth {
     /// and re-planned: the hind limbs leave the trunk one at a time.
     #[serde(default)]
     pub hind_single: bool,
+    /// Why its step search last found nothing anywhere (`None`: it never
+    /// failed). Not part of the state hash: a diagnosis, not locomotion.
+    #[serde(default)]
+    pub stuck_cause: Option<StuckCause>,
 }
 
 /// Serde for [`ChainPose`] (four quaternions, bit-exact through serde's f32).

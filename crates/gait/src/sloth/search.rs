@@ -9,7 +9,9 @@ use slothsim_rig::Limb;
 use super::body::{BodySide, body_offset};
 use super::candidate::CandidateAt;
 use super::route::search_ahead;
-use super::{Fallback, Grip, LimbPhase, LocoView, MAX_TRACES, Search, Sloth, Status, TraceBatch};
+use super::{
+    Fallback, Grip, LimbPhase, LocoView, MAX_TRACES, Search, Sloth, Status, StuckCause, TraceBatch,
+};
 
 /// Reach-checked step-search candidates per limb per frame.
 const MAX_REACH_CHECKS_PER_FRAME: u32 = 8;
@@ -140,7 +142,9 @@ impl Sloth {
                     },
                 )
             });
-            if !self.leaves_a_step(env, li, grip, pair_grip) {
+            // Stuck (a search gave up since the last step): any step that
+            // passes its checks changes the stance, and may unlock it.
+            if self.stuck_cause.is_none() && !self.leaves_a_step(env, li, grip, pair_grip) {
                 continue;
             }
             for (lj, g) in std::iter::once((li, grip)).chain(pair_grip) {
@@ -170,6 +174,7 @@ impl Sloth {
             }
             self.failed_searches = 0;
             self.stalled_turns = 0;
+            self.stuck_cause = None;
         }
         batch.len = 0;
         for li in 0..4 {
@@ -204,7 +209,15 @@ impl Sloth {
             // are then tried farthest first, so the farthest valid grip is
             // found at about a third of the checks.
             let fine = env.cfg.backoff_m;
-            let coarse = fine * COARSE_STRIDE as f32;
+            // Stuck (a search gave up since the last step): every back-off
+            // point is tried, so a window of valid grips narrower than the
+            // coarse stride is not stepped over.
+            let stride = if self.stuck_cause.is_some() {
+                1
+            } else {
+                COARSE_STRIDE
+            };
+            let coarse = fine * stride as f32;
             let in_range =
                 |u: f32| (env.cfg.end_margin_m..=len - env.cfg.end_margin_m).contains(&u);
             while queued < CANDIDATES_PER_LIMB
@@ -221,7 +234,7 @@ impl Sloth {
                 let Some(mut found) = check(cand_u) else {
                     continue;
                 };
-                for j in (1..COARSE_STRIDE).rev() {
+                for j in (1..stride).rev() {
                     let fu = cand_u + sr.sdir * fine * j as f32;
                     if (fu - sr.first_u) * sr.sdir > 1e-6 || !in_range(fu) {
                         continue;
@@ -266,6 +279,7 @@ impl Sloth {
                 if self.failed_searches >= env.cfg.stop_after_failed_searches
                     && self.status == Status::Moving
                 {
+                    self.stuck_cause = Some(self.diagnose_stuck(env));
                     // Wander mode: turn back, unless turning back already
                     // failed to bring a step (tail-first walking is mostly out
                     // of the limbs' reach: see README); then stop here.
@@ -486,5 +500,47 @@ impl Sloth {
         l.due = false;
         self.failed_searches = 0;
         self.stalled_turns = 0;
+        self.stuck_cause = None;
+    }
+
+    /// Why no limb found a step (called when the search gives up): a
+    /// transfer under way; other sloths in the way (some limb has a step
+    /// once they are ignored), after a turn back in both directions; the
+    /// leading limbs within a search distance of their support's end; else
+    /// nothing within reach.
+    fn diagnose_stuck(&self, env: &LocoView<'_>) -> StuckCause {
+        if self.transfer.is_some() {
+            return StuckCause::TransferFailed;
+        }
+        if env.crowd.is_some() {
+            let alone = LocoView {
+                crowd: None,
+                ..*env
+            };
+            if (0..4).any(|lj| self.has_step(&alone, lj)) {
+                return if self.stalled_turns > 0 {
+                    StuckCause::BoxedIn
+                } else {
+                    StuckCause::Crowded
+                };
+            }
+        }
+        if self.at_support_end(env) {
+            StuckCause::Tip
+        } else {
+            StuckCause::NoGrip
+        }
+    }
+
+    /// Whether a leading limb holds its support within one search distance
+    /// (plus the end margin) of the support's end it travels toward.
+    pub(super) fn at_support_end(&self, env: &LocoView<'_>) -> bool {
+        let scene = env.scene();
+        Limb::ALL.iter().any(|&limb| {
+            let g = self.limbs[limb.index()].grip;
+            let len = scene.support(g.support).length();
+            let left = if g.sdir > 0.0 { len - g.u } else { g.u };
+            self.leads(limb) && left < env.cfg.search_distance_m + env.cfg.end_margin_m
+        })
     }
 }

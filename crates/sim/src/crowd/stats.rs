@@ -4,7 +4,9 @@
 
 use bevy_ecs::prelude::*;
 use serde::Serialize;
-use slothsim_gait::{LimbLoads, SlothObservation};
+use std::collections::BTreeMap;
+
+use slothsim_gait::{LimbLoads, SlothObservation, StuckCause};
 use slothsim_observe::{GaitReport, GaitStats, Judge, JudgeReport, Tolerances};
 use slothsim_scene::{SupportId, SupportKind};
 
@@ -177,6 +179,8 @@ pub struct CrowdStats {
     pub stuck_sloths: u32,
     /// Ids of the stuck sloths (first 100).
     pub stuck_ids: Vec<u32>,
+    /// The stuck sloths by cause (see [`StuckReport`]).
+    pub stuck: StuckReport,
     /// Times sloths turned back (dead ends or blocked), summed.
     pub turn_backs: u64,
     /// How much of the forest the crowd roamed in this run.
@@ -187,6 +191,61 @@ pub struct CrowdStats {
     pub grip_load: GripLoadReport,
     /// The full judge report over the crowd.
     pub judge: JudgeReport,
+}
+
+/// Stuck sloths (no step completed in the last [`STUCK_AFTER_S`] s) by
+/// the cause their step search last gave up with ([`StuckCause`]); a stuck
+/// sloth whose search has not given up since its last step counts as
+/// `searching`.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct StuckReport {
+    /// Stuck sloths.
+    pub sloths: u32,
+    /// Their share of the crowd (0..1).
+    pub share: f32,
+    /// Per cause (every cause listed, zero counts included).
+    pub by_cause: BTreeMap<&'static str, CauseCount>,
+}
+
+/// Stuck sloths of one cause.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct CauseCount {
+    /// How many.
+    pub count: u32,
+    /// Some of their ids (the lowest, at most [`CAUSE_EXAMPLES`]).
+    pub example_ids: Vec<u32>,
+}
+
+/// Ids listed per stuck cause.
+pub const CAUSE_EXAMPLES: usize = 10;
+
+/// Name of the stuck sloths whose search has not given up (see [`StuckReport`]).
+pub const SEARCHING: &str = "searching";
+
+impl StuckReport {
+    /// Of `(id, cause)` for every stuck sloth, in id order, among `sloths`.
+    pub fn of(stuck: &[(u32, Option<StuckCause>)], sloths: u32) -> Self {
+        let mut by_cause: BTreeMap<&'static str, CauseCount> = StuckCause::ALL
+            .iter()
+            .map(|c| c.name())
+            .chain([SEARCHING])
+            .map(|n| (n, CauseCount::default()))
+            .collect();
+        for &(id, cause) in stuck {
+            let e = by_cause
+                .entry(cause.map_or(SEARCHING, StuckCause::name))
+                .or_default();
+            e.count += 1;
+            if e.example_ids.len() < CAUSE_EXAMPLES {
+                e.example_ids.push(id);
+            }
+        }
+        StuckReport {
+            sloths: stuck.len() as u32,
+            share: stuck.len() as f32 / sloths.max(1) as f32,
+            by_cause,
+        }
+    }
 }
 
 /// How much of the forest a crowd run covered (this run's frames; a resumed
@@ -299,7 +358,16 @@ impl Crowd {
         let history = self.timings().history.clone();
         let frame_ms: Vec<f64> = history.iter().map(|r| r.iter().sum()).collect();
         let mut q = self.world.query::<(&SlothId, &SlothState, &Observer)>();
-        let mut rows: Vec<(u32, f32, u32, JudgeReport, GaitReport, bool)> = q
+        type Row = (
+            u32,
+            f32,
+            u32,
+            JudgeReport,
+            GaitReport,
+            bool,
+            Option<StuckCause>,
+        );
+        let mut rows: Vec<Row> = q
             .iter(&self.world)
             .map(|(id, s, o)| {
                 let stuck = s.0.time - o.last_step_s > STUCK_AFTER_S;
@@ -310,6 +378,7 @@ impl Crowd {
                     o.judge.finish(),
                     o.stats.finish(),
                     stuck,
+                    s.0.stuck_cause,
                 )
             })
             .collect();
@@ -317,7 +386,10 @@ impl Crowd {
         let judge = JudgeReport::aggregate(rows.iter().map(|r| &r.3))
             .unwrap_or_else(|| crowd_judge().finish());
         let gait = GaitReport::aggregate(rows.iter().map(|r| &r.4));
-        let stuck_ids: Vec<u32> = rows.iter().filter(|r| r.5).map(|r| r.0).collect();
+        let stuck_causes: Vec<(u32, Option<StuckCause>)> =
+            rows.iter().filter(|r| r.5).map(|r| (r.0, r.6)).collect();
+        let stuck = StuckReport::of(&stuck_causes, rows.len() as u32);
+        let stuck_ids: Vec<u32> = stuck_causes.iter().map(|r| r.0).collect();
         let roaming = self.roaming();
         let reports = || rows.iter().map(|r| (r.0, &r.3));
         let worst_sloths = WorstSloths {
@@ -362,6 +434,7 @@ impl Crowd {
             nan_count: judge.nan_count,
             stuck_sloths: stuck_ids.len() as u32,
             stuck_ids: stuck_ids.into_iter().take(100).collect(),
+            stuck,
             turn_backs: rows.iter().map(|r| r.2 as u64).sum(),
             roaming,
             worst_sloths,
