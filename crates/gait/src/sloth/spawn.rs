@@ -118,6 +118,8 @@ impl Sloth {
             hind_single: false,
             transfer: None,
             hind_back_scale: 1.0,
+            shift_gain: 0.0,
+            body_shift: Vec3::ZERO,
             hang_side: Vec3::ZERO,
             hang_trunk: None,
         };
