@@ -317,15 +317,16 @@ impl Sloth {
         self.body_for_targets(env, &self.targets(), offset, BodySide::Body)
     }
 
-    /// Weight shift (issue 22; seed 003's centre-of-mass objective): while a
-    /// side is unloaded ([`side_unload`]), the body at (`pos`, `rot`) moves
-    /// across its heading (horizontally) toward the line of the other side's
-    /// grips, by at most `weight_shift_max_m`, so that those two grips can
-    /// carry it when the side's hind limb lets go too (the lateral-sequence
-    /// footfall order lifts a hind limb while its fore limb still swings).
-    /// Zero while no limb swings, on trunks and in transfers; continuous
-    /// (each side's unloading is 0 at the ends of its swings, and the guards
-    /// below are continuous). Guards: no limb's root moves beyond its reach
+    /// Weight shift (issue 22; seed 003's centre-of-mass objective): where
+    /// the body at (`pos`, `rot`) should move while a side empties
+    /// ([`Sloth::side_emptying`]): across its heading, horizontally, toward
+    /// the line of the other side's grips, by at most `weight_shift_max_m`, so
+    /// that those two grips can carry it (the diagonal-sequence footfall
+    /// order of the steady profile lifts a hind limb while its fore limb
+    /// still swings). `body_average` moves the body toward this aim at most
+    /// [`SHIFT_SPEED`] fast. Zero while no limb swings; scaled by
+    /// [`Sloth::shift_gain`] (0 on trunks, in transfers and while a holding
+    /// claw is left short). Guards: no limb's root moves beyond its reach
     /// band (`max_reach_fraction`) of its target, or further out if it is
     /// already; the shift shrinks to nothing as the fully shifted torso comes
     /// within [`SHIFT_CLEARANCE`] of a support near the grips.
@@ -407,10 +408,11 @@ impl Sloth {
         due_in <= lands_in
     }
 
-    /// While a limb swings: [`Sloth::shift_gain`] falls toward 0 while a
-    /// holding claw was left more than [`SHIFT_SHORT_M`] short of its grip by
-    /// the last solve (joint limits the reach guard does not see), else
-    /// rises toward 1, at [`SHIFT_GAIN_RATE`] per second either way.
+    /// While a limb swings: [`Sloth::shift_gain`] falls toward 0 on a trunk,
+    /// in a transfer, or while a holding claw was left more than
+    /// [`SHIFT_SHORT_M`] short of its grip by the last solve (joint limits the
+    /// reach guard does not see), else rises toward 1, at
+    /// [`SHIFT_GAIN_RATE`] per second either way.
     fn update_shift_gain(&mut self, env: &LocoView<'_>, dt: f32) {
         let allowed = self.transfer.is_none()
             && self.hang_trunk.is_none()
