@@ -132,9 +132,14 @@ pub struct LocomotionConfig {
     pub load_w_force: f32,
     /// Release rule: a limb lifts only if the other grips carry the body with a residual
     /// of at most this many body weights (else it waits, at most 1 s; at least two grips
-    /// stay anyway). Default 0.15: at 0.05 the steady pole strides leave SPEC Table 1
-    /// (docs/grip-loads.md).
+    /// stay anyway). Default 0.15: at 0.05 one more random-angle transfer to a trunk fails
+    /// (`transfer_pass_share_holds`); the steady pole gait needs ≤ 0.03 with the weight
+    /// shift below (docs/grip-loads.md).
     pub release_residual_bw: f32,
+    /// Weight shift: the most the body moves across its heading toward the grips of
+    /// one side while the other side empties (m; 0 = off; docs/grip-loads.md). Default
+    /// 0.04: the steady pole gait's same-side stances need 0.032.
+    pub weight_shift_max_m: f32,
 }
 
 impl Default for LocomotionConfig {
@@ -198,6 +203,7 @@ impl LocomotionConfig {
             load_w_residual: 1.0e4,
             load_w_force: 1.0,
             release_residual_bw: 0.15,
+            weight_shift_max_m: 0.04,
         };
         match profile {
             Profile::Free => free,
@@ -382,6 +388,7 @@ impl LocomotionConfig {
         check("load_w_residual", self.load_w_residual, 1e-6, 1e9)?;
         check("load_w_force", self.load_w_force, 1e-6, 1e9)?;
         check("release_residual_bw", self.release_residual_bw, 1e-4, 100.0)?;
+        check("weight_shift_max_m", self.weight_shift_max_m, 0.0, 0.2)?;
         Ok(())
     }
 }
@@ -416,7 +423,7 @@ mod tests {
     #[test]
     fn grip_load_parameters_are_validated_by_name() {
         type Spoil = fn(&mut LocomotionConfig);
-        let cases: [(&str, Spoil); 8] = [
+        let cases: [(&str, Spoil); 10] = [
             ("mass_kg", |c| c.mass_kg = f32::NAN),
             ("mass_kg", |c| c.mass_kg = 0.0),
             ("grip_mu", |c| c.grip_mu = -0.1),
@@ -425,6 +432,8 @@ mod tests {
             ("load_w_residual", |c| c.load_w_residual = f32::INFINITY),
             ("load_w_force", |c| c.load_w_force = f32::NAN),
             ("release_residual_bw", |c| c.release_residual_bw = 0.0),
+            ("weight_shift_max_m", |c| c.weight_shift_max_m = f32::NAN),
+            ("weight_shift_max_m", |c| c.weight_shift_max_m = -0.01),
         ];
         for (field, spoil) in cases {
             let mut c = LocomotionConfig::default();

@@ -13,7 +13,7 @@ use crate::rigdata::BODY_RADIUS;
 
 use super::collide::torso_penetration;
 use super::solve::KeyBits;
-use super::{LimbPhase, LocoView, Sloth};
+use super::{LimbPhase, LimbState, LocoView, Sloth};
 
 /// The body turns up to this fast (rad/s) without smoothing lag; faster
 /// changes of formula 6's rotation are smoothed (`body_smoothing_s`).
@@ -51,10 +51,23 @@ const HANG_MAX_ROLL: f32 = std::f32::consts::FRAC_PI_2;
 /// below it until the transfer turns it (see `transfer_to_trunk`).
 const HANG_OUT_COS: f32 = 0.5;
 
-/// Words of a `BodyKey`: the body (position, rotation), the hang side and flag,
+/// The weight shift ([`Sloth::weight_shift`]) fades out as the shifted torso
+/// comes this close to a support near the grips (m).
+const SHIFT_CLEARANCE: f32 = 0.05;
+
+/// A holding claw left this far short of its grip lowers the weight shift (m).
+const SHIFT_SHORT_M: f32 = 0.001;
+
+/// How fast the weight shift's gain changes (per second).
+const SHIFT_GAIN_RATE: f32 = 4.0;
+
+/// The most the weight shift moves the body (m/s).
+const SHIFT_SPEED: f32 = 0.15;
+
+/// Words of a `BodyKey`: the body (position, rotation), the weight shift, the hang side and flag,
 /// the transfer (flag, supports, side, away), then per limb its phase, grip
 /// point and support, and target.
-const BODY_KEY_LEN: usize = 7 + 4 + 9 + 4 * 8;
+const BODY_KEY_LEN: usize = 7 + 3 + 4 + 9 + 4 * 8;
 
 /// The bits of the fields [`Sloth::body_average`] reads or writes while no
 /// limb swings.
@@ -217,6 +230,9 @@ impl Sloth {
                 }
             }
         }
+        if self.any_swinging() {
+            self.update_shift_gain(env, dt);
+        }
         // Formula 7's position is already continuous (swing arcs are), so it
         // is used as is: lagging it would pull planted limbs off their grips.
         // The rotation (formula 6) is smoothed against jumps (support changes,
@@ -226,6 +242,12 @@ impl Sloth {
         // Not at all during a branch ↔ trunk transfer: the roll is continuous
         // already, and lagging it would pull planted limbs off their grips.
         let (pos, rot) = self.averaged_body(env);
+        // The weight shift follows its aim at most SHIFT_SPEED fast.
+        let aim = self.weight_shift(env, pos, rot);
+        let step = SHIFT_SPEED * dt;
+        let to_aim = aim - self.body_shift;
+        self.body_shift += to_aim * (step / to_aim.length().max(step));
+        let pos = pos + self.body_shift;
         let k = if env.cfg.body_smoothing_s > 0.0 && self.transfer.is_none() {
             let smooth = 1.0 - (-dt / env.cfg.body_smoothing_s).exp();
             let angle = self.body_rot.angle_between(rot);
@@ -267,6 +289,7 @@ impl Sloth {
         k.f32s(&self.body_pos.to_array());
         k.f32s(&self.body_rot.to_array());
         k.f32s(&self.hang_side.to_array());
+        k.f32s(&self.body_shift.to_array());
         k.u32s(&[self.hang_trunk.map_or(u32::MAX, |t| t.0)]);
         match self.transfer {
             Some(t) => {
@@ -292,6 +315,120 @@ impl Sloth {
             offset.hind_back_m = env.cfg.offset_back_m * self.hind_back_scale * hind_back_share(t);
         }
         self.body_for_targets(env, &self.targets(), offset, BodySide::Body)
+    }
+
+    /// Weight shift (issue 22; seed 003's centre-of-mass objective): where
+    /// the body at (`pos`, `rot`) should move while a side empties
+    /// ([`Sloth::side_emptying`]): across its heading, horizontally, toward
+    /// the line of the other side's grips, by at most `weight_shift_max_m`, so
+    /// that those two grips can carry it (the diagonal-sequence footfall
+    /// order of the steady profile lifts a hind limb while its fore limb
+    /// still swings). `body_average` moves the body toward this aim at most
+    /// [`SHIFT_SPEED`] fast. Zero while no limb swings; scaled by
+    /// [`Sloth::shift_gain`] (0 on trunks, in transfers and while a holding
+    /// claw is left short). Guards: no limb's root moves beyond its reach
+    /// band (`max_reach_fraction`) of its target, or further out if it is
+    /// already; the shift shrinks to nothing as the fully shifted torso comes
+    /// within [`SHIFT_CLEARANCE`] of a support near the grips.
+    fn weight_shift(&self, env: &LocoView<'_>, pos: Vec3, rot: Quat) -> Vec3 {
+        let max = env.cfg.weight_shift_max_m;
+        if max <= 0.0 || self.shift_gain <= 0.0 || !self.any_swinging() {
+            return Vec3::ZERO;
+        }
+        let t = self.targets();
+        // Across the heading, horizontally; less as the heading steepens.
+        let across = self.formula6_fwd(&t).cross(Vec3::Y);
+        let (lateral, level) = (across.normalize_or_zero(), across.length().min(1.0));
+        if lateral == Vec3::ZERO {
+            return Vec3::ZERO;
+        }
+        let side_lat = |left: bool| {
+            let [fore, hind] = if left {
+                [Limb::LF, Limb::LH]
+            } else {
+                [Limb::RF, Limb::RH]
+            };
+            lateral.dot(t[fore.index()] + t[hind.index()]) * 0.5
+        };
+        let mean = lateral.dot(paws_mean(&t));
+        let unload = |x: Limb, y: Limb| f32::from(self.side_emptying(env, x, y));
+        let (u_left, u_right) = (unload(Limb::LF, Limb::LH), unload(Limb::RF, Limb::RH));
+        let mut shift = (u_left * (side_lat(false) - mean) + u_right * (side_lat(true) - mean))
+            .clamp(-max, max);
+        if shift == 0.0 {
+            return Vec3::ZERO;
+        }
+        // Reach: |a + s·lateral| ≤ max(R, |a|) for each limb's root-to-target a.
+        let reach = env.rig.reach * env.cfg.max_reach_fraction;
+        for (i, target) in t.iter().enumerate() {
+            let a = Vec3::from(env.rig.root_ws(i, pos, rot).position) - *target;
+            let (b, r) = (a.dot(lateral), reach.max(a.length()));
+            let root = (b * b - a.length_squared() + r * r).max(0.0).sqrt();
+            shift = shift.clamp((-b - root).min(0.0), (-b + root).max(0.0));
+        }
+        // Clearance of the fully shifted torso from the supports near the grips.
+        let moved = pos + lateral * shift;
+        let torso = [
+            moved + rot * env.rig.torso_ms[0],
+            moved + rot * env.rig.torso_ms[1],
+        ];
+        let scene = env.scene();
+        let depth = self
+            .near_supports(env)
+            .map(|id| {
+                torso_penetration(
+                    scene.support(id),
+                    env.adjacency.segment_chunks(id),
+                    torso,
+                    -SHIFT_CLEARANCE,
+                )
+            })
+            .fold(-SHIFT_CLEARANCE, f32::max);
+        lateral * shift * (-depth / SHIFT_CLEARANCE).clamp(0.0, 1.0) * self.shift_gain * level
+    }
+
+    /// Whether the side of limbs `x` and `y` holds nothing now or will
+    /// before its swing ends: both swing, or one swings and the other is
+    /// due, searching, or due by the gait clock before the swinging one lands.
+    fn side_emptying(&self, env: &LocoView<'_>, x: Limb, y: Limb) -> bool {
+        let (lx, ly) = (self.limbs[x.index()], self.limbs[y.index()]);
+        let swinging = |l: LimbState| l.phase == LimbPhase::Swinging;
+        let (swing, other, other_limb) = match (swinging(lx), swinging(ly)) {
+            (true, true) => return true,
+            (false, false) => return false,
+            (true, false) => (x, ly, y),
+            (false, true) => (y, lx, x),
+        };
+        if other.due || other.phase == LimbPhase::Searching {
+            return true;
+        }
+        let lands_in = (1.0 - self.limbs[swing.index()].swing_t) * env.cfg.swing_duration(swing);
+        let off = env.cfg.phase_offsets()[other_limb.index()];
+        let due_in = (off - self.clock).rem_euclid(1.0) * env.cfg.cycle_duration();
+        due_in <= lands_in
+    }
+
+    /// While a limb swings: [`Sloth::shift_gain`] falls toward 0 on a trunk,
+    /// in a transfer, or while a holding claw was left more than
+    /// [`SHIFT_SHORT_M`] short of its grip by the last solve (joint limits the
+    /// reach guard does not see), else rises toward 1, at
+    /// [`SHIFT_GAIN_RATE`] per second either way.
+    fn update_shift_gain(&mut self, env: &LocoView<'_>, dt: f32) {
+        let allowed = self.transfer.is_none()
+            && self.hang_trunk.is_none()
+            && self.trunk_weights(env).iter().all(|&w| w == 0.0);
+        let short = self
+            .limbs
+            .iter()
+            .filter(|l| l.phase != LimbPhase::Swinging)
+            .map(|l| l.effector.distance(l.grip.point))
+            .fold(0.0, f32::max);
+        let step = SHIFT_GAIN_RATE * dt;
+        self.shift_gain = if !allowed || short > SHIFT_SHORT_M {
+            (self.shift_gain - step).max(0.0)
+        } else {
+            (self.shift_gain + step).min(1.0)
+        };
     }
 
     pub(super) fn body_for_targets(

@@ -271,6 +271,13 @@ pub struct Sloth {
     /// Grip loads: centre-of-mass history and the release rule's counters.
     #[serde(default)]
     pub load: crate::load::LoadTrack,
+    /// Weight shift (issue 22, `Sloth::weight_shift`): the share of it the
+    /// body takes (0..1), lowered while a holding claw is left short.
+    #[serde(default)]
+    pub shift_gain: f32,
+    /// The weight shift the body has now (world, m; see `Sloth::weight_shift`).
+    #[serde(default)]
+    pub body_shift: Vec3,
     /// Goal mode: a back-off under way, re-planning a stuck step (see `replan.rs`).
     #[serde(default)]
     pub backoff: Option<Backoff>,

@@ -119,6 +119,8 @@ impl Sloth {
             stuck_cause: None,
             transfer: None,
             hind_back_scale: 1.0,
+            shift_gain: 0.0,
+            body_shift: Vec3::ZERO,
             hang_side: Vec3::ZERO,
             hang_trunk: None,
         };
