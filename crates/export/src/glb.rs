@@ -555,13 +555,17 @@ fn build(
         if let Some(input) = times {
             let view = b.view(track_offset, track_len, None);
             let mut offset = 0;
+            // One sampler + channel per animated property: `per_sample`
+            // accessor elements of `type_` a sample (weights: one scalar per
+            // morph target, sample-major), packed one after another in `view`.
             let mut channel = |b: &mut Builder,
                                node: json::Index<json::Node>,
                                path: json::animation::Property,
                                type_: T,
-                               width: usize| {
-                let output = b.accessor(view, offset, samples, C::F32, type_, None);
-                offset += samples * width * 4;
+                               per_sample: usize| {
+                let count = samples * per_sample;
+                let output = b.accessor(view, offset, count, C::F32, type_, None);
+                offset += count * type_.multiplicity() * 4;
                 let sampler = json::Index::new(samplers.len() as u32);
                 samplers.push(json::animation::Sampler {
                     extensions: None,
@@ -582,41 +586,20 @@ fn build(
                     extras: None,
                 });
             };
-            use json::animation::Property::{Rotation, Translation};
-            channel(&mut b, root_node, Translation, T::Vec3, 3);
-            channel(&mut b, root_node, Rotation, T::Vec4, 4);
+            use json::animation::Property::{MorphTargetWeights, Rotation, Translation};
+            channel(&mut b, root_node, Translation, T::Vec3, 1);
+            channel(&mut b, root_node, Rotation, T::Vec4, 1);
             for &j in &rec.moved {
-                channel(&mut b, node_of(j), Rotation, T::Vec4, 4);
+                channel(&mut b, node_of(j), Rotation, T::Vec4, 1);
             }
             if !targets.is_empty() {
-                // One scalar per target per sample, sample-major.
-                let output = b.accessor(
-                    view,
-                    offset,
-                    samples * targets.len(),
-                    C::F32,
+                channel(
+                    &mut b,
+                    mesh_node,
+                    MorphTargetWeights,
                     T::Scalar,
-                    None,
+                    targets.len(),
                 );
-                let sampler = json::Index::new(samplers.len() as u32);
-                samplers.push(json::animation::Sampler {
-                    extensions: None,
-                    extras: None,
-                    input,
-                    interpolation: Valid(json::animation::Interpolation::Linear),
-                    output,
-                });
-                channels.push(json::animation::Channel {
-                    sampler,
-                    target: json::animation::Target {
-                        extensions: None,
-                        extras: None,
-                        node: mesh_node,
-                        path: Valid(json::animation::Property::MorphTargetWeights),
-                    },
-                    extensions: None,
-                    extras: None,
-                });
             }
             track_offset += track_len;
         }
