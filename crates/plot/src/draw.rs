@@ -373,6 +373,16 @@ pub(crate) fn label(pm: &mut Pixmap, x: f32, y: f32, s: &str, scale: u32, c: Rgb
     text(pm, x, y - text_height(scale) / 2.0, s, scale, c);
 }
 
+/// A plot's title line: the caller's `prefix` (e.g. the run's name), then
+/// what the plot shows, joined by a middle dot when there is a prefix.
+pub(crate) fn title_line(prefix: &str, what: &str) -> String {
+    if prefix.is_empty() {
+        what.to_string()
+    } else {
+        format!("{prefix}  \u{b7}  {what}")
+    }
+}
+
 /// A plot title at (x, centre y): double size if it fits in `max_w` pixels, else single.
 pub(crate) fn title(pm: &mut Pixmap, x: f32, y: f32, s: &str, max_w: f32) {
     let scale = if text_width(s, 2) <= max_w { 2 } else { 1 };

@@ -273,14 +273,9 @@ pub fn draw_frame_times(ft: &FrameTimes) -> Pixmap {
     } else {
         0.0
     };
-    let title = format!(
-        "{}{}{n} frames \u{b7} mean {mean:.2} ms/frame \u{b7} stacked by stage",
-        ft.title,
-        if ft.title.is_empty() {
-            ""
-        } else {
-            "  \u{b7}  "
-        },
+    let title = draw::title_line(
+        &ft.title,
+        &format!("{n} frames \u{b7} mean {mean:.2} ms/frame \u{b7} stacked by stage"),
     );
     draw::title(&mut pm, l, HEADER / 2.0, &title, w as f32 - l - 8.0);
     pm

@@ -221,11 +221,7 @@ pub fn draw_gait(d: &GaitDiagram) -> Pixmap {
         c::TEXT,
         Align::Center,
     );
-    let title = format!(
-        "{}{}contact phases (bars = limb holds its grip)",
-        d.title,
-        if d.title.is_empty() { "" } else { "  \u{b7}  " }
-    );
+    let title = draw::title_line(&d.title, "contact phases (bars = limb holds its grip)");
     draw::title(&mut pm, l, HEADER / 2.0, &title, w as f32 - l - 8.0);
     pm
 }

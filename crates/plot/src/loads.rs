@@ -195,11 +195,7 @@ pub fn draw_loads(d: &LoadChart) -> Pixmap {
         c::TEXT,
         Align::Left,
     );
-    let title = format!(
-        "{}{}grip force per limb (stacked) and residual, BW",
-        d.title,
-        if d.title.is_empty() { "" } else { "  \u{b7}  " }
-    );
+    let title = draw::title_line(&d.title, "grip force per limb (stacked) and residual, BW");
     draw::title(&mut pm, l, HEADER / 2.0, &title, w as f32 - l - 8.0);
     pm
 }

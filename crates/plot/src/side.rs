@@ -348,16 +348,9 @@ pub fn draw_side(input: &SideView) -> Pixmap {
         (Some(a), Some(z)) => format!(" \u{b7} t = {a:.2}-{z:.2} s"),
         _ => String::new(),
     };
-    let title = format!(
-        "{}{}{} instants{}",
-        input.title,
-        if input.title.is_empty() {
-            ""
-        } else {
-            "  \u{b7}  "
-        },
-        input.instants.len(),
-        span
+    let title = draw::title_line(
+        &input.title,
+        &format!("{} instants{}", input.instants.len(), span),
     );
     draw::title(&mut pm, l, HEADER / 2.0, &title, w - l - 8.0);
     if input.instants.is_empty() {

@@ -216,17 +216,14 @@ pub fn draw_topdown(input: &TopDown) -> Pixmap {
         draw_inset(&mut pm, &proj, input, f, heights);
     }
 
-    let title = format!(
-        "{}{}t = {:.2} s \u{b7} {} sloths \u{b7} seed {}",
-        input.title,
-        if input.title.is_empty() {
-            ""
-        } else {
-            "  \u{b7}  "
-        },
-        input.time_s,
-        input.sloths.len(),
-        input.seed
+    let title = draw::title_line(
+        &input.title,
+        &format!(
+            "t = {:.2} s \u{b7} {} sloths \u{b7} seed {}",
+            input.time_s,
+            input.sloths.len(),
+            input.seed
+        ),
     );
     draw::title(&mut pm, l, HEADER / 2.0, &title, w - l - 8.0);
     if !has_data {
