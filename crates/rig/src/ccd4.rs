@@ -304,7 +304,8 @@ mod tests {
     thread_local! {
         /// Lanes handed to the scalar solver (diagnostics).
         pub(in crate::ccd4) static SCALAR_LANES: Cell<u64> = const { Cell::new(0) };
-        /// Why: off-axis hinge, ball 0 degenerate, ball 1 degenerate, stall, smooth, sweeps.
+        /// Why: off-axis hinge, ball 0 degenerate, ball 1 degenerate, stall, smooth,
+        /// sweeps (out of them, or the last lane sweeping).
         static REASONS: Cell<[u64; 6]> = const { Cell::new([0; 6]) };
     }
 

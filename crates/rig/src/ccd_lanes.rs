@@ -674,8 +674,12 @@ struct Handover {
     stall_prev_err: F,
     /// and the sweep's index (small integers, exact in `f32`).
     stall_iter: F,
-    /// Out of sweeps (the scalar solver polishes from the final pose).
-    out_of_sweeps: M,
+    /// Left between two sweeps: out of sweeps (the scalar solver polishes
+    /// from the final pose), or the last lane still sweeping (the scalar
+    /// solver goes on with its sweeps: one lane's work instead of `N`)…
+    resume: M,
+    /// …from this sweep.
+    resume_iter: u32,
     /// Reached, but the smoothness guard retries (from the final pose).
     smooth: M,
     /// The error at the warm start.
@@ -719,7 +723,8 @@ fn sweeps(
         stall_pose: start,
         stall_prev_err: F::ZERO,
         stall_iter: F::ZERO,
-        out_of_sweeps: none,
+        resume: none,
+        resume_iter: 0,
         smooth: none,
         start_err,
     };
@@ -734,10 +739,18 @@ fn sweeps(
     let min_improvement = splat(params.min_improvement);
     let mut iter = 0;
     while lanes.active.any() {
-        if iter == params.max_iterations {
-            // Out of sweeps: the scalar solver's stall polish decides.
+        // Out of sweeps: the scalar solver's stall polish decides. One lane
+        // left sweeping (the others reached or left): the scalar solver
+        // finishes it from here, the same sweeps without the idle lanes'
+        // work (a lane slow to converge held whole calls: in a crowd's
+        // CcdSolve, calls whose last lane swept 3 or more times did half
+        // of the sweeps). Not before the third sweep: most lanes end within
+        // two, where the scalar solve's set-up would cost what it saves.
+        let last_lane = iter >= 2 && lanes.active.bitmask().count_ones() == 1;
+        if iter == params.max_iterations || last_lane {
             lanes.scalar |= lanes.active;
-            handover.out_of_sweeps = lanes.active;
+            handover.resume = lanes.active;
+            handover.resume_iter = iter;
             #[cfg(test)]
             crate::ccd4::tests::note(5, lanes.active.bitmask());
             break;
@@ -1017,10 +1030,11 @@ fn run(
                     reach_step: false,
                 };
                 resume(&mut poses[i], from)
-            } else if h.out_of_sweeps.test(i) {
-                // No sweep left: the scalar solve polishes from this pose.
+            } else if h.resume.test(i) {
+                // The scalar solve goes on from the next sweep (none left at
+                // `max_iterations`: it polishes from this pose).
                 let from = SweepFrom {
-                    iter: params.max_iterations,
+                    iter: h.resume_iter,
                     prev_err: lane(error, i),
                     err_sq: lane(err_sq, i),
                     reach_step: true,
