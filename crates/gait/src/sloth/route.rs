@@ -38,7 +38,7 @@ const SIDE_STEP_DONE: f32 = 0.05;
 /// `transfer_to_branch`'s approach: the body faces the trunk from this far
 /// around its surface from the goal's branch (metres; 60°, the side a
 /// branch → trunk transfer ends on, at the default 0.15 m radius) ...
-const APPROACH_ARC_M: f32 = 0.157;
+const APPROACH_ARC_M: f32 = 0.15 * std::f32::consts::FRAC_PI_3;
 
 /// ... and at most beside the branch (radians).
 const APPROACH_MAX_ANGLE: f32 = std::f32::consts::FRAC_PI_2;
