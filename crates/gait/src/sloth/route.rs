@@ -41,7 +41,7 @@ const SIDE_STEP_DONE: f32 = 0.05;
 const APPROACH_ARC_M: f32 = 0.15 * std::f32::consts::FRAC_PI_3;
 
 /// ... and at most beside the branch (radians).
-const APPROACH_MAX_ANGLE: f32 = std::f32::consts::FRAC_PI_2;
+const APPROACH_MAX_ANGLE: f32 = std::f32::consts::FRAC_PI_3;
 
 /// The angle around a trunk of `radius` (metres) from the goal's branch that
 /// the body climbs to it from (`transfer_to_branch`'s approach): the same
