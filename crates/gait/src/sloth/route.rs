@@ -40,16 +40,18 @@ const SIDE_STEP_DONE: f32 = 0.05;
 /// branch → trunk transfer ends on, at the default 0.15 m radius) ...
 const APPROACH_ARC_M: f32 = 0.15 * std::f32::consts::FRAC_PI_3;
 
-/// ... and at most beside the branch (radians).
+/// ... and at most this far around (radians): on thinner trunks the body
+/// side-steps only toward the branch, never away from it.
 const APPROACH_MAX_ANGLE: f32 = std::f32::consts::FRAC_PI_3;
 
 /// The angle around a trunk of `radius` (metres) from the goal's branch that
 /// the body climbs to it from (`transfer_to_branch`'s approach): the same
-/// surface distance from the branch whatever the radius. Measured by the
-/// start's side on `branch_trunk --variant to-branch` at 2° steps: at
-/// 0.2 m, 60° passes 60–72° only (the fore limbs climb past the junction),
-/// 45–52° pass 60–108°; at 0.08 m, 60° loses 119–160°, 71–90° pass to
-/// 140° or more.
+/// surface distance from the branch as on the default trunk, at most 60°.
+/// Measured by the start's side on `branch_trunk --variant to-branch` at 2°
+/// steps: at 0.2 m, 60° passes 60–72° only (the fore limbs climb past the
+/// junction), 45–52° pass 60–108°. At 0.08 m, 71–90° pass more angles than
+/// 60°, but a hind grip slipped 5–24 mm as the hang roll ended at angles
+/// that pass at 60° (docs/locomotion.md): hence the cap.
 fn approach_angle(radius: f32) -> f32 {
     (APPROACH_ARC_M / radius.max(1e-3)).min(APPROACH_MAX_ANGLE)
 }
