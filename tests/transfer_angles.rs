@@ -107,9 +107,9 @@ fn transfers_pass_at_random_angles() {
 const SHARE_SEED: u64 = 24;
 
 /// Draws of [`SHARE_SEED`] that pass, per direction (to the trunk, to the
-/// branch), measured when the re-planning transfers were built; the goal
-/// is all [`DRAWS`].
-const SHARE_FLOOR: [usize; 2] = [27, 27];
+/// branch), measured when the approach side step onto a goal branch was
+/// built (27, 27 with the re-planning transfers); the goal is all [`DRAWS`].
+const SHARE_FLOOR: [usize; 2] = [29, 30];
 
 #[test]
 fn transfer_pass_share_holds() {

@@ -35,6 +35,27 @@ const SIDE_STEP_MAX_ARC: f32 = 0.05;
 /// ... until the body faces the trunk from within this angle of that side.
 const SIDE_STEP_DONE: f32 = 0.05;
 
+/// `transfer_to_branch`'s approach: the body faces the trunk from this far
+/// around its surface from the goal's branch (metres; 60°, the side a
+/// branch → trunk transfer ends on, at the default 0.15 m radius) ...
+const APPROACH_ARC_M: f32 = 0.15 * std::f32::consts::FRAC_PI_3;
+
+/// ... and at most this far around (radians): on thinner trunks the body
+/// side-steps only toward the branch, never away from it.
+const APPROACH_MAX_ANGLE: f32 = std::f32::consts::FRAC_PI_3;
+
+/// The angle around a trunk of `radius` (metres) from the goal's branch that
+/// the body climbs to it from (`transfer_to_branch`'s approach): the same
+/// surface distance from the branch as on the default trunk, at most 60°.
+/// Measured by the start's side on `branch_trunk --variant to-branch` at 2°
+/// steps: at 0.2 m, 60° passes 60–72° only (the fore limbs climb past the
+/// junction), 45–52° pass 60–108°. At 0.08 m, 71–90° pass more angles than
+/// 60°, but a hind grip slipped 5–24 mm as the hang roll ended at angles
+/// that pass at 60° (docs/locomotion.md): hence the cap.
+fn approach_angle(radius: f32) -> f32 {
+    (APPROACH_ARC_M / radius.max(1e-3)).min(APPROACH_MAX_ANGLE)
+}
+
 /// A side step may lose this much height along the axis (metres).
 pub(super) const SIDE_STEP_AXIAL_SLACK: f32 = 0.02;
 
@@ -379,9 +400,8 @@ impl Sloth {
     /// shorter way) and the goal's distance along the axis from the body.
     pub(super) fn side_step(&self, env: &LocoView<'_>, sid: SupportId) -> Option<SideStep> {
         let (gs, gp) = self.goal?;
-        let goal_side = self.goal_side?;
         let s = env.scene().support(sid);
-        if gs != sid || s.kind != SupportKind::Trunk || self.transfer.is_some() {
+        if s.kind != SupportKind::Trunk || self.transfer.is_some() {
             return None;
         }
         let a = project(s, self.body_pos);
@@ -392,6 +412,11 @@ impl Sloth {
         };
         let off_axis = self.body_pos - a.point;
         let side_now = (off_axis - axis_up * axis_up.dot(off_axis)).try_normalize()?;
+        let (goal_side, gp) = if gs == sid {
+            (self.goal_side?, gp)
+        } else {
+            self.approach_side(env, sid, gs, axis_up, side_now)?
+        };
         let turn = axis_up
             .dot(side_now.cross(goal_side))
             .atan2(side_now.dot(goal_side));
@@ -405,6 +430,57 @@ impl Sloth {
             side_now,
             axial_to_goal: (project(s, gp).u - a.u) * (axis_up.dot(a.tangent)),
         })
+    }
+
+    /// `transfer_to_branch`'s approach (goal mode): climbing trunk `trunk`
+    /// toward goal branch `branch` leaving it, the side to face the trunk
+    /// from (see [`approach_angle`]; on the side of the branch's vertical
+    /// plane the body is on) and the branch's root on the axis, the height
+    /// the side steps climb to. `None` when `branch` does not leave `trunk`,
+    /// or the root is not above the body (the approach is over).
+    fn approach_side(
+        &self,
+        env: &LocoView<'_>,
+        trunk: SupportId,
+        branch: SupportId,
+        axis_up: Vec3,
+        side_now: Vec3,
+    ) -> Option<(Vec3, Vec3)> {
+        let scene = env.scene();
+        let b = scene.support(branch);
+        if self.dir <= 0.0
+            || b.kind != SupportKind::Branch
+            || !env.adjacency.neighbours(trunk).contains(&branch)
+        {
+            return None;
+        }
+        let t = scene.support(trunk);
+        // The branch's root is its end nearer the trunk's axis; away from
+        // the axis toward its other end.
+        let radial = |p: Vec3| {
+            let a = project(t, p);
+            let d = p - a.point;
+            (a, d - a.tangent * a.tangent.dot(d))
+        };
+        let (e0, e1) = (b.nodes[0], b.nodes[b.nodes.len() - 1]);
+        let ((ra, _), (_, far)) = if radial(e0).1.length() <= radial(e1).1.length() {
+            (radial(e0), radial(e1))
+        } else {
+            (radial(e1), radial(e0))
+        };
+        let body = project(t, self.body_pos);
+        if (ra.point - body.point).dot(axis_up) <= 0.0 {
+            return None;
+        }
+        let away = far.try_normalize()?;
+        let normal = axis_up.cross(away);
+        let normal = if normal.dot(side_now) >= 0.0 {
+            normal
+        } else {
+            -normal
+        };
+        let angle = approach_angle(body.radius);
+        Some((away * angle.cos() + normal * angle.sin(), ra.point))
     }
 
     /// Travel direction along a new support: toward the goal if it is on it,
