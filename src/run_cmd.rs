@@ -548,7 +548,7 @@ fn print_summary(s: &CrowdStats, wall_s: f64, out: &Path) {
         s.threads
     );
     println!(
-        "frame ms p50 {:.2}, p95 {:.2}, max {:.2}; stages p50: trace {:.2}, step_search {:.2}, body_average {:.2}, ccd_solve {:.2}, transitions {:.2}",
+        "frame ms p50 {:.2}, p95 {:.2}, max {:.2}; stages p50: trace {:.2}, step_search {:.2}, body_average {:.2}, ccd_solve {:.2}, grip_load {:.2}, transitions {:.2}",
         s.frame_ms.p50,
         s.frame_ms.p95,
         s.frame_ms.max,
@@ -556,6 +556,7 @@ fn print_summary(s: &CrowdStats, wall_s: f64, out: &Path) {
         s.stages_ms.step_search.p50,
         s.stages_ms.body_average.p50,
         s.stages_ms.ccd_solve.p50,
+        s.stages_ms.grip_load.p50,
         s.stages_ms.transitions.p50
     );
     println!(
