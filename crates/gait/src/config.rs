@@ -202,7 +202,7 @@ impl LocomotionConfig {
             push_strength_bw: 1.0,
             load_w_residual: 1.0e4,
             load_w_force: 1.0,
-            release_residual_bw: 0.15,
+            release_residual_bw: 0.05,
             weight_shift_max_m: 0.04,
         };
         match profile {
