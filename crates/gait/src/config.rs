@@ -132,14 +132,17 @@ pub struct LocomotionConfig {
     pub load_w_force: f32,
     /// Release rule: a limb lifts only if the other grips carry the body with a residual
     /// of at most this many body weights (else it waits, at most 1 s; at least two grips
-    /// stay anyway). Default 0.15: at 0.05 one more random-angle transfer to a trunk fails
-    /// (`transfer_pass_share_holds`); the steady pole gait needs ≤ 0.03 with the weight
-    /// shift below (docs/grip-loads.md).
+    /// stay anyway; the gait clock waits with it). Default 0.05 (the issue's); the steady
+    /// pole gait needs ≤ 0.03 with the weight shift below (docs/grip-loads.md).
     pub release_residual_bw: f32,
     /// Weight shift: the most the body moves across its heading toward the grips of
     /// one side while the other side empties (m; 0 = off; docs/grip-loads.md). Default
     /// 0.04: the steady pole gait's same-side stances need 0.032.
     pub weight_shift_max_m: f32,
+    /// Crowds (`run`, `bench`) solve each sloth's grip loads every this many frames,
+    /// sloths staggered by id (1 = every frame; a lone scenario sloth always every
+    /// frame). Default 4: every frame costs +35 % of the crowd tick (docs/grip-loads.md).
+    pub crowd_load_every: u8,
 }
 
 impl Default for LocomotionConfig {
@@ -202,8 +205,9 @@ impl LocomotionConfig {
             push_strength_bw: 1.0,
             load_w_residual: 1.0e4,
             load_w_force: 1.0,
-            release_residual_bw: 0.15,
+            release_residual_bw: 0.05,
             weight_shift_max_m: 0.04,
+            crowd_load_every: 4,
         };
         match profile {
             Profile::Free => free,
@@ -389,6 +393,12 @@ impl LocomotionConfig {
         check("load_w_force", self.load_w_force, 1e-6, 1e9)?;
         check("release_residual_bw", self.release_residual_bw, 1e-4, 100.0)?;
         check("weight_shift_max_m", self.weight_shift_max_m, 0.0, 0.2)?;
+        check(
+            "crowd_load_every",
+            f32::from(self.crowd_load_every),
+            1.0,
+            60.0,
+        )?;
         Ok(())
     }
 }
@@ -423,7 +433,7 @@ mod tests {
     #[test]
     fn grip_load_parameters_are_validated_by_name() {
         type Spoil = fn(&mut LocomotionConfig);
-        let cases: [(&str, Spoil); 10] = [
+        let cases: [(&str, Spoil); 11] = [
             ("mass_kg", |c| c.mass_kg = f32::NAN),
             ("mass_kg", |c| c.mass_kg = 0.0),
             ("grip_mu", |c| c.grip_mu = -0.1),
@@ -434,6 +444,7 @@ mod tests {
             ("release_residual_bw", |c| c.release_residual_bw = 0.0),
             ("weight_shift_max_m", |c| c.weight_shift_max_m = f32::NAN),
             ("weight_shift_max_m", |c| c.weight_shift_max_m = -0.01),
+            ("crowd_load_every", |c| c.crowd_load_every = 0),
         ];
         for (field, spoil) in cases {
             let mut c = LocomotionConfig::default();

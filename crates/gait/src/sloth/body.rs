@@ -243,7 +243,21 @@ impl Sloth {
         // already, and lagging it would pull planted limbs off their grips.
         let (pos, rot) = self.averaged_body(env);
         // The weight shift follows its aim at most SHIFT_SPEED fast.
-        let aim = self.weight_shift(env, pos, rot);
+        let mut aim = self.weight_shift(env, pos, rot);
+        // A holding claw the last solve left short of its grip (the body moved
+        // where that limb could not follow: joint limits the reach guard does
+        // not see): the shift backs off at once by as much as the claw is
+        // short beyond SHIFT_SHORT_M, and its gain with it, so the claw holds
+        // again in the next frame instead of while the gain fades.
+        let short = self.holding_short();
+        if short > SHIFT_SHORT_M && aim != Vec3::ZERO {
+            let cap = (self.body_shift.length() - (short - SHIFT_SHORT_M)).max(0.0);
+            let len = aim.length();
+            if len > cap {
+                self.shift_gain *= cap / len;
+                aim *= cap / len;
+            }
+        }
         let step = SHIFT_SPEED * dt;
         let to_aim = aim - self.body_shift;
         self.body_shift += to_aim * (step / to_aim.length().max(step));
@@ -417,18 +431,22 @@ impl Sloth {
         let allowed = self.transfer.is_none()
             && self.hang_trunk.is_none()
             && self.trunk_weights(env).iter().all(|&w| w == 0.0);
-        let short = self
-            .limbs
-            .iter()
-            .filter(|l| l.phase != LimbPhase::Swinging)
-            .map(|l| l.effector.distance(l.grip.point))
-            .fold(0.0, f32::max);
+        let short = self.holding_short();
         let step = SHIFT_GAIN_RATE * dt;
         self.shift_gain = if !allowed || short > SHIFT_SHORT_M {
             (self.shift_gain - step).max(0.0)
         } else {
             (self.shift_gain + step).min(1.0)
         };
+    }
+
+    /// How far the last solve left the holding claw farthest from its grip (m).
+    fn holding_short(&self) -> f32 {
+        self.limbs
+            .iter()
+            .filter(|l| l.phase != LimbPhase::Swinging)
+            .map(|l| l.effector.distance(l.grip.point))
+            .fold(0.0, f32::max)
     }
 
     pub(super) fn body_for_targets(

@@ -46,8 +46,17 @@ impl Sloth {
         let arriving = self
             .goal_distance_with(env, Self::grips_only)
             .is_some_and(|(d, on)| on && d <= self.goal_tolerance);
+        // A limb the release rule holds back keeps its turn: the clock waits
+        // with it, so the limbs after it in footfall order do not lift first
+        // (and leave it to let go later with fewer grips).
+        let waiting = (0..4).any(|li| {
+            let l = &self.limbs[li];
+            l.due && l.phase == LimbPhase::Planted && self.load.held_since[li] >= 0.0
+        });
         let prev = self.clock;
-        self.clock = (self.clock + dt / env.cfg.cycle_duration()).fract();
+        if !waiting {
+            self.clock = (self.clock + dt / env.cfg.cycle_duration()).fract();
+        }
         let offsets = env.cfg.phase_offsets();
         for (li, &off) in offsets.iter().enumerate() {
             let crossed = if self.clock >= prev {

@@ -19,8 +19,8 @@ use slothsim_scene::ForestConfig;
 
 use crate::StageTimings;
 use crate::world::{
-    CROWD_LOAD_EVERY, CrowdNeighbours, GripLoad, GripLoadEvery, Locomotion, SimClock, SlothId,
-    SlothState, Traces, new_world,
+    CrowdNeighbours, GripLoad, GripLoadEvery, Locomotion, SimClock, SlothId, SlothState, Traces,
+    new_world,
 };
 
 pub mod checkpoint;
@@ -161,7 +161,7 @@ impl Crowd {
         world.insert_resource(GripLoadEvery(if keep_history {
             1
         } else {
-            CROWD_LOAD_EVERY
+            u32::from(spec.cfg.crowd_load_every)
         }));
         if let Some(n) = neighbours {
             world.insert_resource(n);
