@@ -62,9 +62,9 @@ pub fn variant_for(kind: PresetKind, arg: Option<VariantArg>) -> Result<TrunkVar
 
 #[derive(Args)]
 pub struct ScenarioArgs {
-    /// turn, parallel, trunk, height_change, branch_trunk, pole.
+    /// turn, parallel, trunk, height_change, branch_trunk, pole, branch_end.
     name: String,
-    /// Preset angle in degrees (turn, height_change, branch_trunk).
+    /// Preset angle in degrees (turn, height_change, branch_trunk; branch_end: the branch's inclination).
     #[arg(long, allow_hyphen_values = true)]
     angle: Option<f32>,
     /// Preset parameter in metres (parallel: gap; trunk: radius).

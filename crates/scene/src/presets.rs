@@ -22,6 +22,15 @@ pub const PRESET_BRANCH_RADIUS: f32 = 0.02;
 /// Height of preset branches above the ground.
 pub const PRESET_HEIGHT: f32 = 2.0;
 
+/// branch_end: the branch's length (m), the start's distance from its free
+/// end (the sloth heads for the end) and the goal's (behind the start: it
+/// turns around at the end and walks back).
+pub const BRANCH_END_LENGTH: f32 = 4.0;
+/// See [`BRANCH_END_LENGTH`].
+pub const BRANCH_END_START: f32 = 1.0;
+/// See [`BRANCH_END_LENGTH`].
+pub const BRANCH_END_GOAL: f32 = 2.0;
+
 /// The branch_trunk preset's trunk radius unless given (metres).
 pub const BRANCH_TRUNK_RADIUS: f32 = 0.15;
 
@@ -44,17 +53,20 @@ pub enum PresetKind {
     BranchTrunk,
     /// The 4.2 m × 40 mm horizontal pole of the laboratory rig.
     Pole,
+    /// A branch with a free end: walk to the end, turn around, walk back.
+    BranchEnd,
 }
 
 impl PresetKind {
     /// Every preset.
-    pub const ALL: [PresetKind; 6] = [
+    pub const ALL: [PresetKind; 7] = [
         PresetKind::Turn,
         PresetKind::Parallel,
         PresetKind::Trunk,
         PresetKind::HeightChange,
         PresetKind::BranchTrunk,
         PresetKind::Pole,
+        PresetKind::BranchEnd,
     ];
 
     /// CLI name.
@@ -66,6 +78,7 @@ impl PresetKind {
             PresetKind::HeightChange => "height_change",
             PresetKind::BranchTrunk => "branch_trunk",
             PresetKind::Pole => "pole",
+            PresetKind::BranchEnd => "branch_end",
         }
     }
 
@@ -87,6 +100,7 @@ impl PresetKind {
             PresetKind::HeightChange => Some(("angle", "deg", [110.0, 220.0], 160.0)),
             PresetKind::BranchTrunk => Some(("angle", "deg", [60.0, 160.0], 110.0)),
             PresetKind::Pole => None,
+            PresetKind::BranchEnd => Some(("angle", "deg", [-30.0, 30.0], 0.0)),
         }
     }
 }
@@ -275,6 +289,18 @@ impl Preset {
                     vec![trunk, b],
                     start(1, junction + away * 2.3, -away, below),
                     goal(0, Vec3::new(0.0, 1.5, 0.0)),
+                )
+            }
+            PresetKind::BranchEnd => {
+                // Inclined by `p` (rising toward its free end for p > 0).
+                let a = p.to_radians();
+                let dir = Vec3::new(a.cos(), a.sin(), 0.0);
+                let base = Vec3::new(-2.5, h, 0.0);
+                let tip = base + dir * BRANCH_END_LENGTH;
+                (
+                    vec![branch(vec![base, tip], r, "branch")],
+                    start(0, tip - dir * BRANCH_END_START, dir, below),
+                    goal(0, tip - dir * BRANCH_END_GOAL),
                 )
             }
             PresetKind::Pole => {

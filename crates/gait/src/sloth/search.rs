@@ -283,7 +283,10 @@ impl Sloth {
                     // Wander mode: turn back, unless turning back already
                     // failed to bring a step (tail-first walking is mostly out
                     // of the limbs' reach: see README); then stop here.
-                    if self.wander && self.stalled_turns < MAX_STALLED_TURNS {
+                    if self.may_turn_around(env) && (self.wander || self.goal_behind(env)) {
+                        // At a branch end, head first: turn the body around.
+                        self.start_turn();
+                    } else if self.wander && self.stalled_turns < MAX_STALLED_TURNS {
                         self.turn_back();
                     } else if self.replan(env) {
                         // Goal mode: backed off (or toward the goal again).
