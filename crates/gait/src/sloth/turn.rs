@@ -299,19 +299,13 @@ impl Sloth {
     ) -> Option<TurnStep> {
         let to = tr.angle + inc;
         let done = to >= PI - 1e-4;
-        // Where the limb's root will be: at the heading of its next turn
-        // (three steps on), the body below the paws' mean.
+        // Where the limb's root will be: between the step's end and its next
+        // turn (four steps on), the body below the paws' mean.
         let ahead = if done { PI } else { (to + 1.5 * TURN_STEP).min(PI) };
         let s = env.scene().support(tr.support);
         let t = self.limbs.map(|l| l.target);
         let offset = body_offset(env, self.trunk_weights(env));
         let mean = (t[0] + t[1] + t[2] + t[3]) * 0.25;
-        let future = Turn {
-            angle: ahead,
-            to: ahead,
-            handover: false,
-            ..*tr
-        };
         // The limb's root at the step's end heading and at `ahead`.
         let root_at = |a: f32| {
             let at = Turn {
