@@ -31,6 +31,9 @@ pub const BRANCH_END_START: f32 = 1.0;
 /// See [`BRANCH_END_LENGTH`].
 pub const BRANCH_END_GOAL: f32 = 2.0;
 
+/// The branch radii the branch_end preset takes (metres).
+pub const BRANCH_END_RADIUS_RANGE: [f32; 2] = [0.02, 0.08];
+
 /// The branch_trunk preset's trunk radius unless given (metres).
 pub const BRANCH_TRUNK_RADIUS: f32 = 0.15;
 
@@ -143,6 +146,9 @@ pub struct Preset {
     pub parameter: Option<f32>,
     /// branch_trunk: the trunk's radius (metres); `None` for other presets.
     pub trunk_radius: Option<f32>,
+    /// branch_end: the branch's radius if not the default (metres).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub branch_radius: Option<f32>,
     /// The supports.
     #[serde(skip)]
     pub scene: Scene,
@@ -320,10 +326,33 @@ impl Preset {
             kind,
             parameter: value,
             trunk_radius,
+            branch_radius: None,
             scene: Scene::new(supports)?,
             start,
             goal,
         })
+    }
+
+    /// The branch_end preset at inclination `angle` (degrees, `None`: 0)
+    /// on a branch of `radius` (metres, `None`: [`PRESET_BRANCH_RADIUS`]);
+    /// an error names the field and its range ([`BRANCH_END_RADIUS_RANGE`]).
+    pub fn branch_end(angle: Option<f32>, radius: Option<f32>) -> Result<Preset, SceneError> {
+        let mut p = Preset::new(PresetKind::BranchEnd, angle)?;
+        let Some(r) = radius else {
+            return Ok(p);
+        };
+        let [lo, hi] = BRANCH_END_RADIUS_RANGE;
+        if !(r.is_finite() && (lo..=hi).contains(&r)) {
+            return Err(SceneError::OutOfRange {
+                field: "branch_radius",
+                value: r as f64,
+                allowed: format!("{lo}..={hi} m for preset `branch_end`"),
+            });
+        }
+        let b = p.scene.support(SupportId(0));
+        p.scene = Scene::new(vec![branch(b.nodes.clone(), r, "branch")])?;
+        p.branch_radius = Some(r);
+        Ok(p)
     }
 
     /// Builds a preset by CLI name.
