@@ -91,10 +91,11 @@ impl Turn {
 }
 
 impl Sloth {
-    /// Whether a sloth whose search found nothing anywhere turns around here:
-    /// head first at the end of a branch it alone holds (all four limbs on
-    /// it, none in the air), no transfer under way.
-    pub(super) fn may_turn_around(&self, env: &LocoView<'_>) -> bool {
+    /// Whether a sloth whose search found nothing anywhere may turn around
+    /// here: head first on a branch it alone holds (all four limbs on it,
+    /// none in the air), no transfer under way, and with `at_end` only
+    /// within a search distance of the branch's end it heads for.
+    pub(super) fn may_turn_around(&self, env: &LocoView<'_>, at_end: bool) -> bool {
         let sid = self.limbs[0].grip.support;
         self.turn.is_none()
             && self.dir > 0.0
@@ -105,7 +106,7 @@ impl Sloth {
                 .limbs
                 .iter()
                 .all(|l| l.grip.support == sid && l.phase != LimbPhase::Swinging)
-            && self.at_support_end(env)
+            && (!at_end || self.at_support_end(env))
     }
 
     /// Goal mode: the goal lies behind the body on the support it holds
@@ -270,8 +271,9 @@ impl Sloth {
         true
     }
 
-    /// A turn that cannot go on stops the sloth where it is (its cause:
-    /// the branch's end).
+    /// A turn that cannot go on stops the sloth where it is (its cause: the
+    /// one judged when the turn began, else the branch's end); a wanderer
+    /// tries again later, the turn still under way.
     fn turn_idle(&mut self, env: &LocoView<'_>) {
         let Some(tr) = self.turn.as_mut() else {
             return;
@@ -279,7 +281,7 @@ impl Sloth {
         tr.idle = tr.idle.saturating_add(1);
         if tr.idle >= TURN_MAX_IDLE && self.status == super::Status::Moving {
             tr.idle = 0;
-            self.stuck_cause = Some(super::StuckCause::Tip);
+            self.stuck_cause.get_or_insert(super::StuckCause::Tip);
             self.status = super::Status::NoGrip;
             if self.wander {
                 self.resume_at = Some(self.time + env.cfg.wander_retry_s);
