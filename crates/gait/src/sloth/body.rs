@@ -248,7 +248,8 @@ impl Sloth {
         let to_aim = aim - self.body_shift;
         self.body_shift += to_aim * (step / to_aim.length().max(step));
         let pos = pos + self.body_shift;
-        let k = if env.cfg.body_smoothing_s > 0.0 && self.transfer.is_none() && self.turn.is_none() {
+        let k = if env.cfg.body_smoothing_s > 0.0 && self.transfer.is_none() && self.turn.is_none()
+        {
             let smooth = 1.0 - (-dt / env.cfg.body_smoothing_s).exp();
             let angle = self.body_rot.angle_between(rot);
             let free = BODY_FREE_TURN_RATE * dt;

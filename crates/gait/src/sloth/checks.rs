@@ -336,7 +336,12 @@ impl Sloth {
     /// [`Self::step_reachable`] with the body drawn as the turn draws it (its
     /// heading eased toward the step's end as the claw travels), and the body
     /// out of the supports at every 5 % of the arc (it turns fast).
-    pub(super) fn turn_step_reachable(&self, env: &LocoView<'_>, tr: &Turn, step: &TurnStep) -> bool {
+    pub(super) fn turn_step_reachable(
+        &self,
+        env: &LocoView<'_>,
+        tr: &Turn,
+        step: &TurnStep,
+    ) -> bool {
         let li = step.limb;
         let from = self.limbs.map(|l| (l.grip.point, l.grip.normal));
         let offset = body_offset(env, self.trunk_weights(env));

@@ -114,7 +114,8 @@ impl Sloth {
     pub(super) fn goal_behind(&self, env: &LocoView<'_>) -> bool {
         let _ = env;
         self.goal.is_some_and(|(sid, p)| {
-            sid == self.limbs[0].grip.support && (p - self.body_pos).dot(self.body_rot * Vec3::Z) < 0.0
+            sid == self.limbs[0].grip.support
+                && (p - self.body_pos).dot(self.body_rot * Vec3::Z) < 0.0
         })
     }
 
@@ -303,7 +304,11 @@ impl Sloth {
         let done = to >= PI - 1e-4;
         // Where the limb's root will be: between the step's end and its next
         // turn (four steps on), the body below the paws' mean.
-        let ahead = if done { PI } else { (to + 1.5 * TURN_STEP).min(PI) };
+        let ahead = if done {
+            PI
+        } else {
+            (to + 1.5 * TURN_STEP).min(PI)
+        };
         let s = env.scene().support(tr.support);
         let t = self.limbs.map(|l| l.target);
         let offset = body_offset(env, self.trunk_weights(env));
