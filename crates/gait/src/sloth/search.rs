@@ -288,7 +288,7 @@ impl Sloth {
                     // stop): turn the body around.
                     let stalled = self.wander && self.stalled_turns >= MAX_STALLED_TURNS;
                     if (stalled && self.may_turn_around(env, false))
-                        || (self.goal_behind(env) && self.may_turn_around(env, true))
+                        || (self.goal_behind() && self.may_turn_around(env, true))
                     {
                         self.start_turn();
                     } else if self.wander && self.stalled_turns < MAX_STALLED_TURNS {

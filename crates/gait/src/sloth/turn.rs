@@ -111,8 +111,7 @@ impl Sloth {
 
     /// Goal mode: the goal lies behind the body on the support it holds
     /// (a turn around at its end heads for it).
-    pub(super) fn goal_behind(&self, env: &LocoView<'_>) -> bool {
-        let _ = env;
+    pub(super) fn goal_behind(&self) -> bool {
         self.goal.is_some_and(|(sid, p)| {
             sid == self.limbs[0].grip.support
                 && (p - self.body_pos).dot(self.body_rot * Vec3::Z) < 0.0
@@ -136,7 +135,7 @@ impl Sloth {
             support: self.limbs[0].grip.support,
             fwd0,
             up,
-            sense: if self.id % 2 == 0 { 1.0 } else { -1.0 },
+            sense: if self.id.is_multiple_of(2) { 1.0 } else { -1.0 },
             angle: 0.0,
             to: 0.0,
             limb: NO_LIMB,
@@ -363,7 +362,7 @@ impl Sloth {
                 if env.crowd.is_some_and(|g| g.blocked(self.id, grip)) {
                     return None;
                 }
-                let handover = done && self.hands_over(env, tr, li, grip);
+                let handover = done && self.hands_over(tr, li, grip);
                 let step = TurnStep {
                     limb: li,
                     grip,
@@ -386,8 +385,7 @@ impl Sloth {
     /// handed back to formula 6: formula 6 of that stance within
     /// [`HANDOVER_COS`] of it, and both fore grips ahead of both hind grips
     /// along it (the leg order the walk goes on with).
-    fn hands_over(&self, env: &LocoView<'_>, tr: &Turn, li: usize, grip: Vec3) -> bool {
-        let _ = env;
+    fn hands_over(&self, tr: &Turn, li: usize, grip: Vec3) -> bool {
         let mut t = self.limbs.map(|l| l.grip.point);
         t[li] = grip;
         let back = tr.fwd(PI);
