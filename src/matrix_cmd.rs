@@ -120,7 +120,7 @@ const UP: &[TrunkVariant] = &[TrunkVariant::Up];
 /// the thickest trunk wanderers take from a branch.
 pub const TRANSFER_RADII: &[f32] = &[0.08, 0.15, 0.2];
 
-const SWEEPS: [Sweep; 7] = [
+const SWEEPS: [Sweep; 8] = [
     Sweep {
         name: "turn",
         kind: PresetKind::Turn,
@@ -167,6 +167,14 @@ const SWEEPS: [Sweep; 7] = [
         variants: &[TrunkVariant::Up, TrunkVariant::Down, TrunkVariant::Around],
         radii: &[],
         range: None,
+        thesis: None,
+    },
+    Sweep {
+        name: "branch_end",
+        kind: PresetKind::BranchEnd,
+        variants: UP,
+        radii: &[],
+        range: Some([-30.0, 30.0]),
         thesis: None,
     },
     Sweep {

@@ -62,9 +62,9 @@ pub fn variant_for(kind: PresetKind, arg: Option<VariantArg>) -> Result<TrunkVar
 
 #[derive(Args)]
 pub struct ScenarioArgs {
-    /// turn, parallel, trunk, height_change, branch_trunk, pole.
+    /// turn, parallel, trunk, height_change, branch_trunk, pole, branch_end.
     name: String,
-    /// Preset angle in degrees (turn, height_change, branch_trunk).
+    /// Preset angle in degrees (turn, height_change, branch_trunk; branch_end: the branch's inclination).
     #[arg(long, allow_hyphen_values = true)]
     angle: Option<f32>,
     /// Preset parameter in metres (parallel: gap; trunk: radius).
@@ -73,6 +73,9 @@ pub struct ScenarioArgs {
     /// branch_trunk: the trunk's radius in metres (0.05–0.3; default 0.15).
     #[arg(long, allow_hyphen_values = true)]
     trunk_radius: Option<f32>,
+    /// branch_end: the branch's radius in metres (0.02–0.08; default 0.02).
+    #[arg(long, allow_hyphen_values = true)]
+    branch_radius: Option<f32>,
     /// Gait profile.
     #[arg(long, value_enum, default_value = "free")]
     profile: ProfileArg,
@@ -179,7 +182,11 @@ pub fn goal_of(spec: &ScenarioSpec) -> glam::Vec3 {
 pub fn scenario(args: ScenarioArgs) -> Result<bool> {
     let kind = PresetKind::parse(&args.name)?;
     let value = preset_value(kind, args.angle, args.param)?;
-    let preset = Preset::with_trunk_radius(kind, value, args.trunk_radius)?;
+    let preset = match (kind, args.branch_radius) {
+        (PresetKind::BranchEnd, r) if args.trunk_radius.is_none() => Preset::branch_end(value, r)?,
+        (_, Some(_)) => bail!("--branch-radius is for preset `branch_end` only"),
+        _ => Preset::with_trunk_radius(kind, value, args.trunk_radius)?,
+    };
     if !(args.dt.is_finite() && args.dt > 0.0 && args.dt <= 0.1) {
         bail!("--dt {} is outside the allowed range (0, 0.1] s", args.dt);
     }

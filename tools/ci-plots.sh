@@ -48,6 +48,7 @@ scenario parallel parallel
 scenario trunk-up trunk --variant up
 scenario trunk-down trunk --variant down
 scenario pole pole
+scenario branch_end-10 branch_end --angle 10
 
 "$bin" plot-check "${expected[@]}"
 echo "ci-plots: ${#expected[@]} plots in $out"

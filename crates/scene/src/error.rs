@@ -36,7 +36,7 @@ pub enum SceneError {
     },
     /// Unknown preset name.
     #[error(
-        "unknown preset `{0}` (known: turn, parallel, trunk, height_change, branch_trunk, pole)"
+        "unknown preset `{0}` (known: turn, parallel, trunk, height_change, branch_trunk, pole, branch_end)"
     )]
     UnknownPreset(String),
     /// File could not be read or written.

@@ -22,6 +22,18 @@ pub const PRESET_BRANCH_RADIUS: f32 = 0.02;
 /// Height of preset branches above the ground.
 pub const PRESET_HEIGHT: f32 = 2.0;
 
+/// branch_end: the branch's length (m), the start's distance from its free
+/// end (the sloth heads for the end) and the goal's (behind the start: it
+/// turns around at the end and walks back).
+pub const BRANCH_END_LENGTH: f32 = 4.0;
+/// See [`BRANCH_END_LENGTH`].
+pub const BRANCH_END_START: f32 = 1.0;
+/// See [`BRANCH_END_LENGTH`].
+pub const BRANCH_END_GOAL: f32 = 2.0;
+
+/// The branch radii the branch_end preset takes (metres).
+pub const BRANCH_END_RADIUS_RANGE: [f32; 2] = [0.02, 0.08];
+
 /// The branch_trunk preset's trunk radius unless given (metres).
 pub const BRANCH_TRUNK_RADIUS: f32 = 0.15;
 
@@ -44,17 +56,20 @@ pub enum PresetKind {
     BranchTrunk,
     /// The 4.2 m × 40 mm horizontal pole of the laboratory rig.
     Pole,
+    /// A branch with a free end: walk to the end, turn around, walk back.
+    BranchEnd,
 }
 
 impl PresetKind {
     /// Every preset.
-    pub const ALL: [PresetKind; 6] = [
+    pub const ALL: [PresetKind; 7] = [
         PresetKind::Turn,
         PresetKind::Parallel,
         PresetKind::Trunk,
         PresetKind::HeightChange,
         PresetKind::BranchTrunk,
         PresetKind::Pole,
+        PresetKind::BranchEnd,
     ];
 
     /// CLI name.
@@ -66,6 +81,7 @@ impl PresetKind {
             PresetKind::HeightChange => "height_change",
             PresetKind::BranchTrunk => "branch_trunk",
             PresetKind::Pole => "pole",
+            PresetKind::BranchEnd => "branch_end",
         }
     }
 
@@ -87,6 +103,7 @@ impl PresetKind {
             PresetKind::HeightChange => Some(("angle", "deg", [110.0, 220.0], 160.0)),
             PresetKind::BranchTrunk => Some(("angle", "deg", [60.0, 160.0], 110.0)),
             PresetKind::Pole => None,
+            PresetKind::BranchEnd => Some(("angle", "deg", [-30.0, 30.0], 0.0)),
         }
     }
 }
@@ -129,6 +146,9 @@ pub struct Preset {
     pub parameter: Option<f32>,
     /// branch_trunk: the trunk's radius (metres); `None` for other presets.
     pub trunk_radius: Option<f32>,
+    /// branch_end: the branch's radius if not the default (metres).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub branch_radius: Option<f32>,
     /// The supports.
     #[serde(skip)]
     pub scene: Scene,
@@ -277,6 +297,18 @@ impl Preset {
                     goal(0, Vec3::new(0.0, 1.5, 0.0)),
                 )
             }
+            PresetKind::BranchEnd => {
+                // Inclined by `p` (rising toward its free end for p > 0).
+                let a = p.to_radians();
+                let dir = Vec3::new(a.cos(), a.sin(), 0.0);
+                let base = Vec3::new(-2.5, h, 0.0);
+                let tip = base + dir * BRANCH_END_LENGTH;
+                (
+                    vec![branch(vec![base, tip], r, "branch")],
+                    start(0, tip - dir * BRANCH_END_START, dir, below),
+                    goal(0, tip - dir * BRANCH_END_GOAL),
+                )
+            }
             PresetKind::Pole => {
                 let pole = branch(
                     vec![Vec3::new(-2.1, h, 0.0), Vec3::new(2.1, h, 0.0)],
@@ -294,10 +326,33 @@ impl Preset {
             kind,
             parameter: value,
             trunk_radius,
+            branch_radius: None,
             scene: Scene::new(supports)?,
             start,
             goal,
         })
+    }
+
+    /// The branch_end preset at inclination `angle` (degrees, `None`: 0)
+    /// on a branch of `radius` (metres, `None`: [`PRESET_BRANCH_RADIUS`]);
+    /// an error names the field and its range ([`BRANCH_END_RADIUS_RANGE`]).
+    pub fn branch_end(angle: Option<f32>, radius: Option<f32>) -> Result<Preset, SceneError> {
+        let mut p = Preset::new(PresetKind::BranchEnd, angle)?;
+        let Some(r) = radius else {
+            return Ok(p);
+        };
+        let [lo, hi] = BRANCH_END_RADIUS_RANGE;
+        if !(r.is_finite() && (lo..=hi).contains(&r)) {
+            return Err(SceneError::OutOfRange {
+                field: "branch_radius",
+                value: r as f64,
+                allowed: format!("{lo}..={hi} m for preset `branch_end`"),
+            });
+        }
+        let b = p.scene.support(SupportId(0));
+        p.scene = Scene::new(vec![branch(b.nodes.clone(), r, "branch")])?;
+        p.branch_radius = Some(r);
+        Ok(p)
     }
 
     /// Builds a preset by CLI name.

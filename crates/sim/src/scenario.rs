@@ -343,7 +343,17 @@ pub fn run_scenario_observed(
         .as_ref()
         .map(|g| load_report(Some((g.from_s, g.to_s))));
     let report = observer.judge().finish();
-    let verdict = report.verdict(observer.judge().tolerances());
+    let mut verdict = report.verdict(observer.judge().tolerances());
+    // branch_end: the sloth must come back head first (its body turned
+    // around at the end), not tail first.
+    if preset.kind == slothsim_scene::PresetKind::BranchEnd
+        && (s.body_rot * Vec3::Z).dot(start.forward) >= 0.0
+    {
+        verdict.pass = false;
+        verdict
+            .failures
+            .push("turned_around false: the body still heads for the branch's end".into());
+    }
     Ok(ScenarioResult {
         scenario: preset.kind.name().to_string(),
         parameter: preset.parameter,

@@ -81,7 +81,7 @@ pub struct BodyMemo {
 }
 
 #[inline]
-fn smoothstep(t: f32) -> f32 {
+pub(super) fn smoothstep(t: f32) -> f32 {
     let t = t.clamp(0.0, 1.0);
     t * t * (3.0 - 2.0 * t)
 }
@@ -118,7 +118,7 @@ pub(super) fn trunk_blend(env: &LocoView<'_>, a: SupportId, b: SupportId, t: f32
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(super) struct BodyOffset {
     /// Metres below the mean of the paws.
-    metres: f32,
+    pub(super) metres: f32,
     /// Share of limbs on a trunk, 0..1.
     trunk_share: f32,
     /// `transfer_to_branch`'s "offset back": metres the hindquarters are
@@ -262,7 +262,8 @@ impl Sloth {
         let to_aim = aim - self.body_shift;
         self.body_shift += to_aim * (step / to_aim.length().max(step));
         let pos = pos + self.body_shift;
-        let k = if env.cfg.body_smoothing_s > 0.0 && self.transfer.is_none() {
+        let k = if env.cfg.body_smoothing_s > 0.0 && self.transfer.is_none() && self.turn.is_none()
+        {
             let smooth = 1.0 - (-dt / env.cfg.body_smoothing_s).exp();
             let angle = self.body_rot.angle_between(rot);
             let free = BODY_FREE_TURN_RATE * dt;
@@ -346,7 +347,7 @@ impl Sloth {
     /// within [`SHIFT_CLEARANCE`] of a support near the grips.
     fn weight_shift(&self, env: &LocoView<'_>, pos: Vec3, rot: Quat) -> Vec3 {
         let max = env.cfg.weight_shift_max_m;
-        if max <= 0.0 || self.shift_gain <= 0.0 || !self.any_swinging() {
+        if max <= 0.0 || self.shift_gain <= 0.0 || !self.any_swinging() || self.turn.is_some() {
             return Vec3::ZERO;
         }
         let t = self.targets();
@@ -429,6 +430,7 @@ impl Sloth {
     /// [`SHIFT_GAIN_RATE`] per second either way.
     fn update_shift_gain(&mut self, env: &LocoView<'_>, dt: f32) {
         let allowed = self.transfer.is_none()
+            && self.turn.is_none()
             && self.hang_trunk.is_none()
             && self.trunk_weights(env).iter().all(|&w| w == 0.0);
         let short = self.holding_short();
@@ -481,6 +483,10 @@ impl Sloth {
         offset: BodyOffset,
         side: BodySide,
     ) -> (Vec3, Vec3) {
+        // Turning around at a branch end: the turn sets the heading.
+        if let Some(frame) = self.turn_frame_now(t) {
+            return frame;
+        }
         let fwd = self.formula6_fwd(t);
         let mean = paws_mean(t);
         let s = env
@@ -511,7 +517,7 @@ impl Sloth {
 
     /// Formula 6 for IK targets `t`: the average of the hind → fore
     /// directions of both sides.
-    fn formula6_fwd(&self, t: &[Vec3; 4]) -> Vec3 {
+    pub(super) fn formula6_fwd(&self, t: &[Vec3; 4]) -> Vec3 {
         let (lf, rf, lh, rh) = (
             t[Limb::LF.index()],
             t[Limb::RF.index()],

@@ -8,8 +8,11 @@ use glam::{Quat, Vec3};
 use slothsim_rig::{CcdParams, CcdResult, ChainPose, Limb, RootTransform};
 use slothsim_scene::SupportId;
 
-use super::body::{BodyOffset, BodySide, body_offset, hind_back_share, swing_point, trunk_blend};
+use super::body::{
+    BodyOffset, BodySide, body_offset, hind_back_share, rotation_from, swing_point, trunk_blend,
+};
 use super::solve::lanes8;
+use super::turn::{Turn, TurnStep};
 use super::{Grip, LocoView, Sloth};
 
 /// Reach checks give up once a sweep gains less than this (metres)…
@@ -327,6 +330,107 @@ impl Sloth {
             offset,
             roots: std::array::from_fn(|i| env.rig.root_ws(i, pos, rot)),
         }
+    }
+
+    /// A turning step of a turn around (`turn.rs`): the checks of
+    /// [`Self::step_reachable`] with the body drawn as the turn draws it (its
+    /// heading eased toward the step's end as the claw travels), and the body
+    /// out of the supports at every 5 % of the arc (it turns fast).
+    pub(super) fn turn_step_reachable(
+        &self,
+        env: &LocoView<'_>,
+        tr: &Turn,
+        step: &TurnStep,
+    ) -> bool {
+        let li = step.limb;
+        let from = self.limbs.map(|l| (l.grip.point, l.grip.normal));
+        let offset = body_offset(env, self.trunk_weights(env));
+        let turning = Turn {
+            to: step.to,
+            limb: li as u8,
+            handover: step.handover,
+            ..*tr
+        };
+        let down = self.body_rot * Vec3::NEG_Y;
+        let stance = |at: Option<f32>| {
+            let mut grips = from.map(|g| g.0);
+            let mut tol;
+            match at {
+                Some(t) => {
+                    tol = [SWING_IK_TOLERANCE; 4];
+                    grips[li] = swing_point(
+                        from[li],
+                        (step.grip, step.normal),
+                        t,
+                        env.cfg.swing_clearance_m,
+                        down,
+                    );
+                    tol[li] = f32::INFINITY;
+                }
+                None => {
+                    tol = [HOLD_IK_TOLERANCE; 4];
+                    grips[li] = step.grip;
+                    tol[li] = STANCE_IK_TOLERANCE;
+                }
+            }
+            let (f, up) = self.turn_frame(&turning, &grips, at.unwrap_or(1.0));
+            let mean = (grips[0] + grips[1] + grips[2] + grips[3]) * 0.25;
+            let (pos, rot) = (mean - up * offset.metres, rotation_from(f, up));
+            StanceCheck {
+                grips,
+                tol,
+                pos,
+                rot,
+                offset,
+                roots: std::array::from_fn(|i| env.rig.root_ws(i, pos, rot)),
+            }
+        };
+        let stances: [StanceCheck; STANCE_CHECKS] =
+            std::array::from_fn(|k| stance(SWING_CHECKS.get(k).copied()));
+        if TRANSFER_BODY_CHECKS.iter().any(|&t| {
+            let st = stance(Some(t));
+            self.body_penetrates(env, st.pos, st.rot)
+        }) {
+            return false;
+        }
+        self.stances_pass(env, &stances)
+    }
+
+    /// Whether limb `li` reaches `grips[li]` (holding tolerance, within its
+    /// reach band) with the body of turn `tr` at its end heading below the
+    /// mean of `grips`.
+    pub(super) fn turn_hold_check(
+        &self,
+        env: &LocoView<'_>,
+        tr: &Turn,
+        grips: [Vec3; 4],
+        li: usize,
+    ) -> bool {
+        let offset = body_offset(env, self.trunk_weights(env));
+        let (f, up) = self.turn_frame(tr, &grips, 1.0);
+        let mean = (grips[0] + grips[1] + grips[2] + grips[3]) * 0.25;
+        let (pos, rot) = (mean - up * offset.metres, rotation_from(f, up));
+        let root = env.rig.root_ws(li, pos, rot);
+        let d = Vec3::from(root.position).distance(grips[li]);
+        if d > env.rig.reach * env.cfg.max_reach_fraction
+            || d < env.rig.reach * env.cfg.min_reach_fraction
+        {
+            return false;
+        }
+        let base = CcdParams {
+            max_iterations: CHECK_MAX_ITERATIONS,
+            ..*env.ccd
+        };
+        let mut pose = self.limbs[li].pose;
+        reach_check(
+            &env.rig.chains[li],
+            root,
+            grips[li],
+            &mut pose,
+            HOLD_IK_TOLERANCE,
+            &base,
+        )
+        .0
     }
 
     /// The checks every stance of a step passes: each planted limb's root

@@ -38,6 +38,7 @@ impl Sloth {
         }
         self.end_backoff();
         self.finish_transfer(env);
+        self.finish_turn_step(env);
         // At the goal with a limb still swinging (the steady profile's
         // swings overlap, so a moment with all four planted may never come
         // while walking): no limb lifts off until the swings end; then the
@@ -85,6 +86,11 @@ impl Sloth {
                     held_back = true;
                     self.load.held_back_frames += 1;
                 }
+                continue;
+            }
+            if self.turn.is_some() {
+                // Turning around: the limb's step is the turn's.
+                self.turn_search(env, li);
                 continue;
             }
             self.limbs[li].due = false;

@@ -36,11 +36,13 @@ mod search;
 mod solve;
 mod spawn;
 mod transfer;
+mod turn;
 
 pub use body::BodyMemo;
 pub use replan::Backoff;
 pub use solve::SolveMemo;
 pub use transfer::Transfer;
+pub use turn::{TURN_STEP, Turn};
 
 pub use crate::env::LocoView;
 
@@ -292,6 +294,9 @@ pub struct Sloth {
     /// failed). Not part of the state hash: a diagnosis, not locomotion.
     #[serde(default)]
     pub stuck_cause: Option<StuckCause>,
+    /// Turning around at a branch end, if under way (see `turn.rs`).
+    #[serde(default)]
+    pub turn: Option<Turn>,
 }
 
 /// Serde for [`ChainPose`] (four quaternions, bit-exact through serde's f32).

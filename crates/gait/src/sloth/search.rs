@@ -283,7 +283,15 @@ impl Sloth {
                     // Wander mode: turn back, unless turning back already
                     // failed to bring a step (tail-first walking is mostly out
                     // of the limbs' reach: see README); then stop here.
-                    if self.wander && self.stalled_turns < MAX_STALLED_TURNS {
+                    // Goal mode at a branch end with the goal behind, or a
+                    // wanderer whose turn backs brought no step (it would
+                    // stop): turn the body around.
+                    let stalled = self.wander && self.stalled_turns >= MAX_STALLED_TURNS;
+                    if (stalled && self.may_turn_around(env, false))
+                        || (self.goal_behind() && self.may_turn_around(env, true))
+                    {
+                        self.start_turn();
+                    } else if self.wander && self.stalled_turns < MAX_STALLED_TURNS {
                         self.turn_back();
                     } else if self.replan(env) {
                         // Goal mode: backed off (or toward the goal again).

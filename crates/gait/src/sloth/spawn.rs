@@ -116,6 +116,7 @@ impl Sloth {
             backoff: None,
             replans: 0,
             hind_single: false,
+            turn: None,
             stuck_cause: None,
             transfer: None,
             hind_back_scale: 1.0,

@@ -1,0 +1,413 @@
+//! Turning around at a branch end (thesis, scenario 4: "at the end point the
+//! movement stops, with the option of moving back keeping the order of the
+//! limbs, or of changing branch"; issue 24 item 2). A sloth hanging below a
+//! branch turns its body about the branch's up (the body's up) by steps: each
+//! limb, when the gait clock lifts it (the footfall order goes on), re-grips
+//! the branch where its root will be after the step, and the body's heading
+//! turns by at most [`TURN_STEP`] during that swing, eased as the claw
+//! travels; the body stays below the paws' mean (formula 7). Formula 6 is
+//! undefined while the grips gather across the branch, so the heading is the
+//! turn's until it has reached the other way; the last step then hands it
+//! back to formula 6, blended over that step's swing. Every step passes the
+//! stance checks of an ordinary step (reach within the joint limits at the
+//! arc's points and the landing, the body out of the supports) with the body
+//! drawn as it will be. Then the sloth walks on head first.
+
+use std::f32::consts::PI;
+
+use glam::{Quat, Vec3};
+use serde::{Deserialize, Serialize};
+use slothsim_rig::Limb;
+use slothsim_scene::{SupportId, SupportKind};
+
+use crate::path::{axis_at, project};
+
+use super::body::{body_offset, smoothstep};
+use super::{Grip, LimbPhase, LocoView, Sloth};
+
+/// The most the body's heading turns during one limb's swing (radians).
+pub const TURN_STEP: f32 = PI / 16.0;
+
+/// The turn hands the heading back to formula 6 only where formula 6 of
+/// the stance after the step is within this angle of the way back (cosine).
+const HANDOVER_COS: f32 = 0.94;
+
+/// A grip is looked for this far (m) along the branch either side of where
+/// the limb's root will be…
+const TURN_SEARCH_M: f32 = 0.24;
+
+/// …every this many metres.
+const TURN_STRIDE_M: f32 = 0.01;
+
+/// Directions around the branch a grip is tried at besides toward the root.
+const AROUND: usize = 7;
+
+/// A turn that has made no progress for this many steps (a step that turns
+/// the body, or the handover) gives up: the sloth stops.
+const TURN_MAX_IDLE: u8 = 8;
+
+/// No limb's swing is turning the body ([`Turn::limb`]).
+const NO_LIMB: u8 = u8::MAX;
+
+/// A turn around under way (see the module docs).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Turn {
+    /// The branch it turns on.
+    pub support: SupportId,
+    /// The heading when the turn began (unit, perpendicular to `up`).
+    pub fwd0: Vec3,
+    /// The body's up, which the heading turns about (the branch's up).
+    pub up: Vec3,
+    /// Which way about `up` it turns (±1).
+    pub sense: f32,
+    /// The heading the planted stance has reached (radians from `fwd0`, 0..π).
+    pub angle: f32,
+    /// The heading the turning limb's step ends at.
+    pub to: f32,
+    /// The limb whose swing turns the body ([`NO_LIMB`]: none).
+    pub limb: u8,
+    /// That swing hands the heading back to formula 6.
+    pub handover: bool,
+    /// Steps in a row that did not advance the turn.
+    pub idle: u8,
+}
+
+/// A turning step to check: the limb, its grip (point, normal), the heading
+/// it ends at and whether it hands over.
+#[derive(Clone, Copy)]
+pub(super) struct TurnStep {
+    pub(super) limb: usize,
+    pub(super) grip: Vec3,
+    pub(super) normal: Vec3,
+    pub(super) to: f32,
+    pub(super) handover: bool,
+}
+
+impl Turn {
+    /// The heading at angle `a`.
+    fn fwd(&self, a: f32) -> Vec3 {
+        Quat::from_axis_angle(self.up, self.sense * a) * self.fwd0
+    }
+}
+
+impl Sloth {
+    /// Whether a sloth whose search found nothing anywhere may turn around
+    /// here: head first on a branch it alone holds (all four limbs on it,
+    /// none in the air), no transfer under way, and with `at_end` only
+    /// within a search distance of the branch's end it heads for.
+    pub(super) fn may_turn_around(&self, env: &LocoView<'_>, at_end: bool) -> bool {
+        let sid = self.limbs[0].grip.support;
+        self.turn.is_none()
+            && self.dir > 0.0
+            && self.transfer.is_none()
+            && self.hang_trunk.is_none()
+            && env.scene().support(sid).kind == SupportKind::Branch
+            && self
+                .limbs
+                .iter()
+                .all(|l| l.grip.support == sid && l.phase != LimbPhase::Swinging)
+            && (!at_end || self.at_support_end(env))
+    }
+
+    /// Goal mode: the goal lies behind the body on the support it holds
+    /// (a turn around at its end heads for it).
+    pub(super) fn goal_behind(&self) -> bool {
+        self.goal.is_some_and(|(sid, p)| {
+            sid == self.limbs[0].grip.support
+                && (p - self.body_pos).dot(self.body_rot * Vec3::Z) < 0.0
+        })
+    }
+
+    /// Starts a turn around from the current stance (see the module docs).
+    pub(super) fn start_turn(&mut self) {
+        let t = self.limbs.map(|l| l.target);
+        // The frame the body has now (formula 6, below the branch).
+        let fwd0 = self.formula6_fwd(&t);
+        let up = (Vec3::Y - fwd0 * fwd0.dot(Vec3::Y)).normalize_or(self.body_rot * Vec3::Y);
+        for l in &mut self.limbs {
+            l.fallback = None;
+            l.due = false;
+            if l.phase == LimbPhase::Searching {
+                l.phase = LimbPhase::Planted;
+            }
+        }
+        self.turn = Some(Turn {
+            support: self.limbs[0].grip.support,
+            fwd0,
+            up,
+            sense: if self.id.is_multiple_of(2) { 1.0 } else { -1.0 },
+            angle: 0.0,
+            to: 0.0,
+            limb: NO_LIMB,
+            handover: false,
+            idle: 0,
+        });
+        self.failed_searches = 0;
+    }
+
+    /// Swing progress of the step turning the body (0 with none).
+    fn turn_progress(&self, tr: &Turn) -> f32 {
+        match self.limbs.get(tr.limb as usize) {
+            Some(l) if l.phase == LimbPhase::Swinging => l.swing_t,
+            Some(_) => 1.0,
+            None => 0.0,
+        }
+    }
+
+    /// The body frame (forward, up) of a turn `tr` for IK targets `t` at
+    /// progress `p` of its turning step: the heading eased from `angle` to
+    /// `to`; a handover blends it into formula 6 of `t` (and the up into
+    /// the branch's plain up) as the step goes.
+    pub(super) fn turn_frame(&self, tr: &Turn, t: &[Vec3; 4], p: f32) -> (Vec3, Vec3) {
+        let e = smoothstep(p);
+        let f = tr.fwd(tr.angle + (tr.to - tr.angle) * e);
+        let (f, up) = if tr.handover {
+            let f6 = self.formula6_fwd(t);
+            let f = (f * (1.0 - e) + f6 * e).normalize_or(f6);
+            (f, tr.up * (1.0 - e) + Vec3::Y * e)
+        } else {
+            (f, tr.up)
+        };
+        let up = (up - f * f.dot(up)).normalize_or(tr.up);
+        (f, up)
+    }
+
+    /// [`Self::turn_frame`] of the turn under way, at its step's progress now.
+    pub(super) fn turn_frame_now(&self, t: &[Vec3; 4]) -> Option<(Vec3, Vec3)> {
+        let tr = self.turn?;
+        Some(self.turn_frame(&tr, t, self.turn_progress(&tr)))
+    }
+
+    /// The turning limb's step has landed: the heading is where it ended,
+    /// and after the handover the turn is over: the sloth walks on head first
+    /// the way it now faces.
+    pub(super) fn finish_turn_step(&mut self, env: &LocoView<'_>) {
+        let Some(mut tr) = self.turn else {
+            return;
+        };
+        let Some(l) = self.limbs.get(tr.limb as usize) else {
+            return;
+        };
+        if l.phase == LimbPhase::Swinging {
+            return;
+        }
+        tr.angle = tr.to;
+        tr.limb = NO_LIMB;
+        if !tr.handover {
+            self.turn = Some(tr);
+            return;
+        }
+        self.turn = None;
+        let fwd = self.body_rot * Vec3::Z;
+        let s = env.scene().support(tr.support);
+        for l in &mut self.limbs {
+            let a = axis_at(s, l.grip.u);
+            l.grip.sdir = if a.tangent.dot(fwd) >= 0.0 { 1.0 } else { -1.0 };
+        }
+        self.dir = 1.0;
+        self.turns = self.turns.wrapping_add(1);
+        self.failed_searches = 0;
+        self.stalled_turns = 0;
+        self.stuck_cause = None;
+    }
+
+    /// Limb `li`'s step of the turn, when the gait clock lifts it: the first
+    /// grip near where its root will be (closest first, every
+    /// [`TURN_STRIDE_M`]) whose step turns the body by [`TURN_STEP`] (or
+    /// half, or none) and passes the stance checks; once the heading is the
+    /// other way, a step that hands it back to formula 6. Grips that the limb
+    /// still reaches at the heading of its next turn are preferred. Found, the
+    /// limb swings; else it stays planted and the turn waits for the next
+    /// limb (a turn that makes no progress for [`TURN_MAX_IDLE`] steps stops
+    /// the sloth).
+    pub(super) fn turn_search(&mut self, env: &LocoView<'_>, li: usize) -> bool {
+        let Some(tr) = self.turn else {
+            return false;
+        };
+        let l = &mut self.limbs[li];
+        l.due = false;
+        l.phase = LimbPhase::Planted;
+        let remaining = PI - tr.angle;
+        let incs = [TURN_STEP, TURN_STEP * 0.5, 0.0].map(|d| d.min(remaining));
+        let found = [true, false].into_iter().find_map(|lookahead| {
+            incs.iter().enumerate().find_map(|(k, &inc)| {
+                if k > 0 && inc >= incs[k - 1] {
+                    return None;
+                }
+                self.turn_step_for(env, &tr, li, inc, lookahead)
+            })
+        });
+        let Some(step) = found else {
+            self.turn_idle(env);
+            return false;
+        };
+        let s = env.scene().support(tr.support);
+        let a = project(s, step.grip);
+        let l = &mut self.limbs[li];
+        l.from = l.grip.point;
+        l.from_normal = l.grip.normal;
+        l.from_support = l.grip.support;
+        l.grip = Grip {
+            point: step.grip,
+            normal: step.normal,
+            support: tr.support,
+            u: a.u,
+            sdir: l.grip.sdir,
+        };
+        l.phase = LimbPhase::Swinging;
+        l.swing_t = 0.0;
+        let advanced = step.to > tr.angle || step.handover;
+        self.turn = Some(Turn {
+            to: step.to,
+            limb: li as u8,
+            handover: step.handover,
+            idle: if advanced { 0 } else { tr.idle + 1 },
+            ..tr
+        });
+        self.failed_searches = 0;
+        if !advanced && tr.idle + 1 >= TURN_MAX_IDLE {
+            self.turn_idle(env);
+        }
+        true
+    }
+
+    /// A turn that cannot go on stops the sloth where it is (its cause: the
+    /// one judged when the turn began, else the branch's end); a wanderer
+    /// tries again later, the turn still under way.
+    fn turn_idle(&mut self, env: &LocoView<'_>) {
+        let Some(tr) = self.turn.as_mut() else {
+            return;
+        };
+        tr.idle = tr.idle.saturating_add(1);
+        if tr.idle >= TURN_MAX_IDLE && self.status == super::Status::Moving {
+            tr.idle = 0;
+            self.stuck_cause.get_or_insert(super::StuckCause::Tip);
+            self.status = super::Status::NoGrip;
+            if self.wander {
+                self.resume_at = Some(self.time + env.cfg.wander_retry_s);
+            }
+        }
+    }
+
+    /// The first grip for limb `li`'s turning step by `inc` (see
+    /// [`Self::turn_search`]).
+    fn turn_step_for(
+        &self,
+        env: &LocoView<'_>,
+        tr: &Turn,
+        li: usize,
+        inc: f32,
+        lookahead: bool,
+    ) -> Option<TurnStep> {
+        let to = tr.angle + inc;
+        let done = to >= PI - 1e-4;
+        // Where the limb's root will be: between the step's end and its next
+        // turn (four steps on), the body below the paws' mean.
+        let ahead = if done {
+            PI
+        } else {
+            (to + 1.5 * TURN_STEP).min(PI)
+        };
+        let s = env.scene().support(tr.support);
+        let t = self.limbs.map(|l| l.target);
+        let offset = body_offset(env, self.trunk_weights(env));
+        let mean = (t[0] + t[1] + t[2] + t[3]) * 0.25;
+        // The limb's root at the step's end heading and at `ahead`.
+        let root_at = |a: f32| {
+            let at = Turn {
+                angle: a,
+                to: a,
+                handover: false,
+                ..*tr
+            };
+            let (f, up) = self.turn_frame(&at, &t, 1.0);
+            let pos = mean - up * offset.metres;
+            let rot = super::body::rotation_from(f, up);
+            Vec3::from(env.rig.root_ws(li, pos, rot).position)
+        };
+        let roots = [root_at(to), root_at(ahead)];
+        let centre = (project(s, roots[0]).u + project(s, roots[1]).u) * 0.5;
+        let len = s.length();
+        let margin = env.cfg.end_margin_m;
+        let n = (TURN_SEARCH_M / TURN_STRIDE_M).round() as i32;
+        (0..=2 * n).find_map(|k| {
+            // 0, +1, −1, +2, −2, …
+            let j = if k % 2 == 1 { (k + 1) / 2 } else { -(k / 2) };
+            let u = centre + j as f32 * TURN_STRIDE_M;
+            if !(margin..=len - margin).contains(&u) {
+                return None;
+            }
+            let a = axis_at(s, u);
+            // Around the branch: toward the root at the step's end, toward
+            // it at `ahead`, and between.
+            let out_to = |root: Vec3| {
+                let radial = root - a.point;
+                (radial - a.tangent * a.tangent.dot(radial)).normalize_or(-tr.up)
+            };
+            let (o0, o1) = (out_to(roots[0]), out_to(roots[1]));
+            let mid = (o0 + o1).normalize_or(o0);
+            // …then every 45° on around the branch from between them.
+            let mut outs = [mid; AROUND + 2];
+            outs[0] = o0;
+            outs[1] = o1;
+            for (m, o) in outs.iter_mut().skip(2).enumerate() {
+                let k = (m / 2 + 1) as f32 * if m % 2 == 0 { 1.0 } else { -1.0 };
+                *o = Quat::from_axis_angle(a.tangent, k * std::f32::consts::FRAC_PI_4) * mid;
+            }
+            outs.iter().enumerate().find_map(|(m, &out)| {
+                if outs[..m].iter().any(|o| o.dot(out) > 0.999) {
+                    return None;
+                }
+                let grip = a.point + out * a.radius;
+                if env.crowd.is_some_and(|g| g.blocked(self.id, grip)) {
+                    return None;
+                }
+                let handover = done && self.hands_over(tr, li, grip);
+                let step = TurnStep {
+                    limb: li,
+                    grip,
+                    normal: out,
+                    to,
+                    handover,
+                };
+                if !self.turn_step_reachable(env, tr, &step) {
+                    return None;
+                }
+                if lookahead && !done && !self.turn_holds_ahead(env, tr, &step) {
+                    return None;
+                }
+                Some(step)
+            })
+        })
+    }
+
+    /// Whether, with limb `li` at `grip`, the heading the other way can be
+    /// handed back to formula 6: formula 6 of that stance within
+    /// [`HANDOVER_COS`] of it, and both fore grips ahead of both hind grips
+    /// along it (the leg order the walk goes on with).
+    fn hands_over(&self, tr: &Turn, li: usize, grip: Vec3) -> bool {
+        let mut t = self.limbs.map(|l| l.grip.point);
+        t[li] = grip;
+        let back = tr.fwd(PI);
+        let f6 = self.formula6_fwd(&t);
+        let along = |l: Limb| t[l.index()].dot(back);
+        let fore = along(Limb::LF).min(along(Limb::RF));
+        let hind = along(Limb::LH).max(along(Limb::RH));
+        f6.dot(back) >= HANDOVER_COS && fore > hind
+    }
+
+    /// Whether limb `li`, once at its turning step's grip, still reaches it
+    /// at the heading of its next turning step (the others holding theirs).
+    fn turn_holds_ahead(&self, env: &LocoView<'_>, tr: &Turn, step: &TurnStep) -> bool {
+        let ahead = (step.to + 3.0 * TURN_STEP).min(PI);
+        let mut t = self.limbs.map(|l| l.grip.point);
+        t[step.limb] = step.grip;
+        let future = Turn {
+            angle: ahead,
+            to: ahead,
+            handover: false,
+            ..*tr
+        };
+        self.turn_hold_check(env, &future, t, step.limb)
+    }
+}
