@@ -495,6 +495,15 @@ impl Sloth {
         {
             return if tangent.y >= 0.0 { 1.0 } else { -1.0 };
         }
+        // A support other limbs already hold: the way they travel on it. The
+        // body's forward a grip implies (its sdir × dir) is the same for all
+        // limbs on a support, so each grips on its own side of a branch. (A
+        // back-off turns every grip's sdir; toward the goal, a hind limb
+        // following the others onto the goal's branch then gripped it on
+        // the other limb's side: trunk_branch at 72°, r 0.2 m.)
+        if let Some(l) = self.limbs.iter().find(|l| l.grip.support == sid) {
+            return l.grip.sdir;
+        }
         if let Some((gs, gp)) = self.goal {
             let g = project(s, gp);
             let here = project(s, self.body_pos);
