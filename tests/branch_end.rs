@@ -40,18 +40,17 @@ fn run(angle: f32, radius: f32) -> Vec<String> {
     }
     // Every lift-off of the run, the turn included, at its own limb's
     // phase of the gait clock (RH 0, LF 0.25, LH 0.5, RF 0.75 of the cycle:
-    // the diagonal sequence), within half a cycle of it: the release rule
+    // the diagonal sequence), within half a cycle of it. The release rule
     // (issue 22) may hold a lift back until the grips that stay carry the
-    // body, which keeps the order but not the time (up to 0.37 cycle in
-    // the turn). A limb whose search found no step does not lift that cycle.
-    let cycle = spec.cfg.cycle_duration();
+    // body; the clock waits with it (so the order holds), which is why the
+    // phase is the sloth's own clock, not time over the cycle. A limb whose
+    // search found no step does not lift that cycle.
     let offsets = spec.cfg.phase_offsets();
     let mut late = Vec::new();
     for w in r.observations.windows(2) {
         for (i, off) in offsets.iter().enumerate() {
             if w[0].limbs[i].planted && !w[1].limbs[i].planted {
-                let clock = (0.999 + w[1].time_s / cycle).fract();
-                let after_due = (clock - off).rem_euclid(1.0);
+                let after_due = (w[1].gait_clock - off).rem_euclid(1.0);
                 if after_due >= 0.5 {
                     late.push((i, w[1].time_s, after_due));
                 }

@@ -36,6 +36,11 @@ pub struct LimbObservation {
 pub struct SlothObservation {
     /// Simulated time at the end of the frame, seconds.
     pub time_s: f32,
+    /// Phase of the gait clock at the end of the frame (0–1 of a cycle; a limb is due when
+    /// it crosses the limb's phase offset). It stops while the release rule holds a due
+    /// limb back, so it is not `time_s` over the cycle.
+    #[serde(default)]
+    pub gait_clock: f32,
     /// Body (pelvis-to-chest centre) position.
     pub body_pos: Vec3,
     /// Body rotation (model +Z forward, +Y toward the support).

@@ -48,6 +48,7 @@ impl Sloth {
                 .all(|l| l.pose.is_finite() && l.target.is_finite()));
         SlothObservation {
             time_s: self.time,
+            gait_clock: self.clock,
             body_pos: self.body_pos,
             body_rot: self.body_rot,
             head_ws: head,

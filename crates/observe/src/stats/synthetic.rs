@@ -126,6 +126,7 @@ impl Walk {
         });
         SlothObservation {
             time_s: t,
+            gait_clock: frame.rem_euclid(self.cycle_frames) as f32 / self.cycle_frames as f32,
             body_pos,
             body_rot: Quat::IDENTITY,
             head_ws: body_pos + Vec3::new(0.0, 0.02, 0.45),
