@@ -220,15 +220,23 @@ impl Sloth {
         let kind_change = steps.iter().any(|&(li, ..)| {
             scene.support(self.limbs[li].grip.support).kind != scene.support(support).kind
         });
-        if kind_change
-            && TRANSFER_BODY_CHECKS.iter().any(|&t| {
-                let st = stance_at(Some(t));
-                self.body_penetrates(env, st.pos, st.rot)
-            })
-        {
+        if kind_change && self.arc_body_penetrates(env, &mut stance_at) {
             return false;
         }
         self.stances_pass(env, &stances)
+    }
+
+    /// Whether the body, placed as `stance` places it at each of
+    /// [`TRANSFER_BODY_CHECKS`]'s points of a step's arc, enters a support.
+    fn arc_body_penetrates(
+        &self,
+        env: &LocoView<'_>,
+        mut stance: impl FnMut(Option<f32>) -> StanceCheck,
+    ) -> bool {
+        TRANSFER_BODY_CHECKS.iter().any(|&t| {
+            let st = stance(Some(t));
+            self.body_penetrates(env, st.pos, st.rot)
+        })
     }
 
     /// The hind pair's step onto a branch (`transfer_to_branch`): the largest
@@ -387,10 +395,7 @@ impl Sloth {
         };
         let stances: [StanceCheck; STANCE_CHECKS] =
             std::array::from_fn(|k| stance(SWING_CHECKS.get(k).copied()));
-        if TRANSFER_BODY_CHECKS.iter().any(|&t| {
-            let st = stance(Some(t));
-            self.body_penetrates(env, st.pos, st.rot)
-        }) {
+        if self.arc_body_penetrates(env, &stance) {
             return false;
         }
         self.stances_pass(env, &stances)
