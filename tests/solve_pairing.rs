@@ -18,6 +18,7 @@ fn bits(s: &Sloth) -> Vec<u32> {
     for l in &s.limbs {
         v.extend(l.pose.0.iter().flat_map(|q| q.to_array()));
         v.extend(l.effector.to_array());
+        v.extend(l.joints.iter().flatten().flat_map(|j| j.to_array()));
         v.extend(l.root.to_array());
         for t in [l.settled_ls, l.cold_miss_ls] {
             v.extend(t.map_or([f32::NAN; 3], |t| t.to_array()));

@@ -143,8 +143,33 @@ pub fn load_params(cfg: &LocomotionConfig) -> LoadParams {
 
 impl Sloth {
     /// Centre of mass: torso at the middle of its capsule, each limb's upper, lower and
-    /// hand/foot segments at their midpoints (forward kinematics of the solved pose).
+    /// hand/foot segments at their midpoints, from the joints the last CcdSolve left
+    /// (`LimbState::joints`: a few additions); bit for bit
+    /// [`Sloth::centre_of_mass_fk`] while those hold (from CcdSolve to the next
+    /// BodyAverage), which it falls back to where a limb has none.
     pub fn centre_of_mass(&self, w: &LocoView<'_>) -> Vec3 {
+        let mut joints = [[Vec3::ZERO; 4]; 4];
+        for (j, l) in joints.iter_mut().zip(&self.limbs) {
+            let Some([j1, j2, j3]) = l.joints else {
+                return self.centre_of_mass_fk(w);
+            };
+            *j = [j1, j2, j3, l.effector];
+        }
+        self.centre_of_mass_of(w, |li| joints[li])
+    }
+
+    /// [`Sloth::centre_of_mass`] by forward kinematics of the poses (12 segments).
+    pub fn centre_of_mass_fk(&self, w: &LocoView<'_>) -> Vec3 {
+        let rig = w.rig;
+        self.centre_of_mass_of(w, |li| {
+            let root = rig.root_ws(li, self.body_pos, self.body_rot);
+            let j = rig.chains[li].fk(root, &self.limbs[li].pose);
+            [j[1], j[2], j[3], j[4]]
+        })
+    }
+
+    /// The centre of mass with limb `li`'s joints 1..3 and effector (world) from `joints`.
+    fn centre_of_mass_of(&self, w: &LocoView<'_>, joints: impl Fn(usize) -> [Vec3; 4]) -> Vec3 {
         let rig = w.rig;
         let torso = self.body_pos + self.body_rot * (0.5 * (rig.torso_ms[0] + rig.torso_ms[1]));
         let mut points = [MassPoint {
@@ -152,11 +177,10 @@ impl Sloth {
             mass: 1.0 - 4.0 * LIMB_MASS_SHARE,
         }; 13];
         for li in 0..4 {
-            let root = rig.root_ws(li, self.body_pos, self.body_rot);
-            let j = rig.chains[li].fk(root, &self.limbs[li].pose);
+            let j = joints(li);
             for (s, share) in SEGMENT_SHARE.iter().enumerate() {
                 points[1 + 3 * li + s] = MassPoint {
-                    point: 0.5 * (j[1 + s] + j[2 + s]),
+                    point: 0.5 * (j[s] + j[1 + s]),
                     mass: LIMB_MASS_SHARE * share,
                 };
             }

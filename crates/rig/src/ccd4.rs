@@ -156,6 +156,49 @@ impl LimbChains4 {
         let (a, b) = (half(0), half(4));
         std::array::from_fn(|i| if i < 4 { a[i] } else { b[i - 4] })
     }
+
+    /// Joints 1..3 and the effector of each lane in world space, lane `i`
+    /// exactly `chains()[i].fk(roots[i], &poses[i])[1..5]` (index 3 is
+    /// [`LimbChains4::fk_effectors`]'s effector, bit for bit).
+    pub fn fk_joints(&self, roots: &[RootTransform; 4], poses: &[ChainPose; 4]) -> [[Vec3; 4]; 4] {
+        match (&self.soa, self.fk_first) {
+            (Some(c), Some(first)) => lanes4::fk_joints(c, first, roots, poses),
+            _ => std::array::from_fn(|i| {
+                let j = self.chains[i].fk(roots[i], &poses[i]);
+                [j[1], j[2], j[3], j[4]]
+            }),
+        }
+    }
+
+    /// [`LimbChains4::fk_joints`] of two sets of the four chains (lane `i` on
+    /// chain `i % 4`), in one AVX register where the CPU has AVX2; the same bits.
+    pub fn fk_joints8(&self, roots: &[RootTransform; 8], poses: &[ChainPose; 8]) -> [[Vec3; 4]; 8] {
+        #[cfg(target_arch = "x86_64")]
+        if let Some((c8, first)) = &self.soa8 {
+            // SAFETY: `soa8` exists only where the CPU has AVX2 (see `LimbChains4::new`).
+            return unsafe { fk_joints8_avx2(c8, *first, roots, poses) };
+        }
+        let half = |k: usize| {
+            self.fk_joints(
+                &std::array::from_fn(|i| roots[k + i]),
+                &std::array::from_fn(|i| poses[k + i]),
+            )
+        };
+        let (a, b) = (half(0), half(4));
+        std::array::from_fn(|i| if i < 4 { a[i] } else { b[i - 4] })
+    }
+}
+
+/// [`lanes8::fk_joints`], compiled with AVX2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn fk_joints8_avx2(
+    c: &lanes8::Chains,
+    first: (lanes8::V, lanes8::Q),
+    roots: &[RootTransform; 8],
+    poses: &[ChainPose; 8],
+) -> [[Vec3; 4]; 8] {
+    lanes8::fk_joints(c, first, roots, poses)
 }
 
 /// [`lanes8::fk_effectors`], compiled with AVX2.
@@ -419,6 +462,38 @@ mod tests {
                     fk[i].to_array().map(f32::to_bits),
                     want.to_array().map(f32::to_bits)
                 );
+            }
+        }
+    }
+
+    #[test]
+    fn fk_joints_match_scalar_bit_for_bit() {
+        let rig = Rig::sloth();
+        let chains: [&LimbChain; 4] = std::array::from_fn(|i| &rig.chains()[i]);
+        let prepared = LimbChains4::new(chains);
+        let mut s = 0xf9_u64;
+        let bits = |v: Vec3| v.to_array().map(f32::to_bits);
+        for _ in 0..3000 {
+            let roots: [RootTransform; 8] = std::array::from_fn(|_| root(&mut s));
+            let poses: [ChainPose; 8] = std::array::from_fn(|i| {
+                let u: [f32; 12] = std::array::from_fn(|_| rnd(&mut s));
+                chains[i % 4].sample_pose(&u)
+            });
+            let j8 = prepared.fk_joints8(&roots, &poses);
+            let j4 = prepared.fk_joints(
+                &std::array::from_fn(|i| roots[i]),
+                &std::array::from_fn(|i| poses[i]),
+            );
+            let eff = prepared.fk_effectors8(&roots, &poses);
+            for i in 0..8 {
+                let want = chains[i % 4].fk(roots[i], &poses[i]);
+                for k in 0..4 {
+                    assert_eq!(bits(j8[i][k]), bits(want[1 + k]), "lane {i} joint {k}");
+                    if i < 4 {
+                        assert_eq!(bits(j4[i][k]), bits(want[1 + k]), "lane {i} joint {k}");
+                    }
+                }
+                assert_eq!(bits(j8[i][3]), bits(eff[i]));
             }
         }
     }

@@ -1072,6 +1072,43 @@ fn run(
     results
 }
 
+/// Joints 1..3 and the effector in world space, lane `i` exactly `fk(roots[i],
+/// &poses[i])[1..5]` of its chain (the forward kinematics of
+/// [`LimbChain::fk_local`] in SIMD lanes, its operations in its order; index 3
+/// is [`fk_effectors`]'s effector).
+#[inline(always)]
+pub(super) fn fk_joints(
+    c: &Chains,
+    (first_pos, first_rest): (V, Q),
+    roots: &[RootTransform; N],
+    poses: &[ChainPose; N],
+) -> [[Vec3; 4]; N] {
+    let mut pose = [Q::IDENTITY; CHAIN_JOINTS];
+    for (j, q) in pose.iter_mut().enumerate() {
+        *q = Q::gather(poses.map(|p| p.0[j]));
+    }
+    let rot = Q::gather(roots.map(|r| r.rotation));
+    let pos = V::gather(roots.map(|r| r.position));
+    let mut world = [[Vec3::ZERO; 4]; N];
+    let mut parent_pos = first_pos;
+    let mut parent_rot = first_rest.mul(pose[0]);
+    for (k, ((offset, rest), q)) in c.offsets.iter().zip(&c.rest).zip(&pose).skip(1).enumerate() {
+        parent_pos = parent_pos.add(parent_rot.rotate(*offset));
+        parent_rot = parent_rot.mul(*rest).mul(*q);
+        // `RootTransform::transform_point`: `position + rotation * p`.
+        let w = pos.add(rot.rotate(parent_pos)).scatter();
+        for (lane, p) in world.iter_mut().zip(w) {
+            lane[k] = Vec3::from(p);
+        }
+    }
+    let local = parent_pos.add(parent_rot.rotate(c.effector));
+    let w = pos.add(rot.rotate(local)).scatter();
+    for (lane, p) in world.iter_mut().zip(w) {
+        lane[3] = Vec3::from(p);
+    }
+    world
+}
+
 /// The forward kinematics' first joint before its pose: its position
 /// (`0 + 1 · offset₀`) and `1 · rest₀`, the operations
 /// [`LimbChain::fk_local`] starts with (constants of the chains).

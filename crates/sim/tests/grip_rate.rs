@@ -5,7 +5,7 @@
 use slothsim_gait::LocomotionConfig;
 use slothsim_rig::Rig;
 use slothsim_scene::{ForestConfig, generate_forest};
-use slothsim_sim::{CROWD_LOAD_EVERY, Crowd, CrowdSpec, ForestSource, GripLoad};
+use slothsim_sim::{CROWD_LOAD_EVERY, Crowd, CrowdSpec, ForestSource, GripLoad, Locomotion};
 
 #[test]
 fn a_crowd_solves_each_sloth_every_fourth_frame_staggered_by_id() {
@@ -63,4 +63,42 @@ fn a_crowd_solves_each_sloth_every_fourth_frame_staggered_by_id() {
             "{g:?}"
         );
     }
+}
+
+/// The GripLoad stage's centre of mass comes from the joints CcdSolve wrote
+/// (`LimbState::joints`): between CcdSolve and the next BodyAverage it must be
+/// exactly the forward kinematics of the poses, for every sloth of a moving
+/// crowd (paired, single and skipped solves alike).
+#[test]
+fn centre_of_mass_from_solved_joints_is_forward_kinematics_bit_for_bit() {
+    let forest = ForestConfig {
+        trees: 6,
+        area_m: 25.0,
+        ..ForestConfig::default()
+    };
+    let spec = CrowdSpec {
+        sloths: 40,
+        seed: 11,
+        dt: 1.0 / 60.0,
+        cfg: LocomotionConfig::default(),
+        clearance_m: 0.3,
+    };
+    let scene = generate_forest(&forest).unwrap();
+    let mut crowd =
+        Crowd::new(spec, &Rig::sloth(), scene, ForestSource::Procedural(forest)).unwrap();
+    let mut checked = 0;
+    for _ in 0..240 {
+        crowd.tick();
+        let sloths = crowd.sloths();
+        let world = crowd.world();
+        let w = world.resource::<Locomotion>().view();
+        for s in &sloths {
+            assert!(s.limbs.iter().all(|l| l.joints.is_some()), "sloth {}", s.id);
+            let cached = s.centre_of_mass(&w).to_array().map(f32::to_bits);
+            let fk = s.centre_of_mass_fk(&w).to_array().map(f32::to_bits);
+            assert_eq!(cached, fk, "sloth {}", s.id);
+            checked += 1;
+        }
+    }
+    assert_eq!(checked, 240 * 40);
 }

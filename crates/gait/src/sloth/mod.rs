@@ -130,6 +130,14 @@ pub struct LimbState {
     pub root: Vec3,
     /// Claw tip after IK (world).
     pub effector: Vec3,
+    /// Joints 1..3 (elbow or knee, wrist or ankle, the hand's or foot's base)
+    /// after IK (world), written with `effector` by every CcdSolve: with the
+    /// effector, the limb's segments for the centre of mass
+    /// ([`Sloth::centre_of_mass`]). Body and poses change only in
+    /// BodyAverage and CcdSolve, so they hold from CcdSolve to the next
+    /// BodyAverage. Not checkpointed (derived): `None` until the first solve.
+    #[serde(skip)]
+    pub joints: Option<[Vec3; 3]>,
     /// Search state (valid while `Searching`).
     pub search: Search,
     /// The gait clock asked this limb to step and it has not yet.

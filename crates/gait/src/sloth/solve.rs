@@ -169,9 +169,9 @@ impl Sloth {
         let fk = env
             .rig
             .chains4
-            .fk_effectors8(&lanes8(pa.roots, pb.roots), &poses);
-        a.set_effectors(lanes4(&fk, 0));
-        b.set_effectors(lanes4(&fk, 4));
+            .fk_joints8(&lanes8(pa.roots, pb.roots), &poses);
+        a.set_joints(lanes4(&fk, 0));
+        b.set_joints(lanes4(&fk, 4));
         [a.pull_to_grips(env, ia), b.pull_to_grips(env, ib)]
     }
 
@@ -361,7 +361,7 @@ impl Sloth {
     ) -> u32 {
         let iterations = self.solve_finish_limbs(env, params, prep, solved);
         let poses = self.limbs.map(|l| l.pose);
-        self.set_effectors(env.rig.chains4.fk_effectors(&prep.roots, &poses));
+        self.set_joints(env.rig.chains4.fk_joints(&prep.roots, &poses));
         iterations
     }
 
@@ -438,9 +438,13 @@ impl Sloth {
         iterations
     }
 
-    /// The claws where the limbs' poses put them (world space).
-    fn set_effectors(&mut self, effectors: [Vec3; 4]) {
-        for (l, effector) in self.limbs.iter_mut().zip(effectors) {
+    /// The joints and claws where the limbs' poses put them (world space;
+    /// per limb joints 1..3 and the effector, [`LimbChains4::fk_joints`]).
+    ///
+    /// [`LimbChains4::fk_joints`]: slothsim_rig::LimbChains4::fk_joints
+    fn set_joints(&mut self, joints: [[Vec3; 4]; 4]) {
+        for (l, [j1, j2, j3, effector]) in self.limbs.iter_mut().zip(joints) {
+            l.joints = Some([j1, j2, j3]);
             l.effector = effector;
         }
     }

@@ -53,6 +53,7 @@ impl Sloth {
             pose: ChainPose::NEUTRAL,
             root: c.point,
             effector: c.point,
+            joints: None,
             search: Search {
                 support: hint.support,
                 sdir,
