@@ -81,6 +81,11 @@ pub struct BenchArgs {
     /// Gait profile.
     #[arg(long, value_enum, default_value = "free")]
     profile: ProfileArg,
+    /// Locomotion config (TOML); overrides the profile's defaults (e.g.
+    /// `crowd_load_every = 1`). A spawn cache holds crowds of one config: give
+    /// each config its own --spawn-cache folder.
+    #[arg(long, value_name = "FILE")]
+    config: Option<PathBuf>,
     /// Keep spawned crowds here (state files keyed by size, seed and forest)
     /// and reuse them: spawning 10,000 sloths takes minutes. Delete the folder
     /// after changing the rig or the gait.
@@ -157,7 +162,7 @@ fn plan(args: &BenchArgs) -> Result<Plan> {
             );
         }
     }
-    let cfg = load_config(args.profile, None)?;
+    let cfg = load_config(args.profile, args.config.as_deref())?;
     Ok(Plan {
         sizes,
         frames,

@@ -54,6 +54,11 @@ pub struct LoadTrack {
     /// Frames since the loads were last solved (see [`Sloth::grip_load`]'s `every`).
     #[serde(default)]
     pub skipped: u32,
+    /// Per limb, the force (N) it carried in the last loads solved (zero for a limb
+    /// that swung): where the next solve's Newton steps start when a friction cone
+    /// binds (`slothsim_load::solve_warm`).
+    #[serde(default)]
+    pub forces: [Vec3; 4],
 }
 
 impl Default for LoadTrack {
@@ -70,6 +75,7 @@ impl Default for LoadTrack {
             forced_releases: 0,
             active: [0; 4],
             skipped: 0,
+            forces: [Vec3::ZERO; 4],
         }
     }
 }
@@ -203,6 +209,7 @@ impl Sloth {
         }; 4];
         let mut limb_of = [0usize; 4];
         let mut hint = [0u8; 4];
+        let mut warm = [Vec3::ZERO; 4];
         let mut k = 0;
         for (li, l) in self.limbs.iter().enumerate() {
             if li != except && l.phase != LimbPhase::Swinging {
@@ -212,6 +219,7 @@ impl Sloth {
                 };
                 limb_of[k] = li;
                 hint[k] = self.load.active[li];
+                warm[k] = self.load.forces[li];
                 k += 1;
             }
         }
@@ -229,7 +237,13 @@ impl Sloth {
             ang_mom_rate: Vec3::ZERO,
             grips: &grips[..k],
         };
-        let solved = slothsim_load::solve_from(&params, &stance, &hint)?;
+        // The stage's own solve starts from its last answer; a release check (another
+        // set of grips) from the unconstrained optimum.
+        let solved = if except == 4 {
+            slothsim_load::solve_warm(&params, &stance, &hint, &warm[..k])?
+        } else {
+            slothsim_load::solve_from(&params, &stance, &hint)?
+        };
         let mut out = LimbLoads {
             residual_force: solved.residual_force,
             residual_torque: solved.residual_torque,
@@ -266,6 +280,7 @@ impl Sloth {
             Ok((l, active)) => {
                 self.load.residual_bw = l.residual_bw;
                 self.load.active = active;
+                self.load.forces = l.force;
                 l
             }
             Err(_) => {

@@ -22,7 +22,7 @@ mod params;
 mod reference;
 
 pub use active::{ActiveSet, CONE, PULL, PUSH};
-pub use barrier::{solve, solve_from};
+pub use barrier::{solve, solve_from, solve_warm};
 pub use error::LoadError;
 pub use model::{
     Grip, GripLoads, GripState, MAX_GRIPS, MassPoint, SolveMethod, Stance, centre_of_mass,
