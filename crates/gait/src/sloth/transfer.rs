@@ -10,7 +10,7 @@ use slothsim_scene::{SupportId, SupportKind};
 
 use crate::path::project;
 
-use super::{LimbPhase, LocoView, Sloth, mix64};
+use super::{LimbPhase, LocoView, Sloth, Status, mix64};
 
 /// On a trunk reached from a branch the body faces the trunk from this angle
 /// around it from the branch (radians): beside the branch, head clear of it.
@@ -31,6 +31,32 @@ pub struct Transfer {
     pub side: Vec3,
     /// Unit direction from the trunk's axis toward the branch, perpendicular to the axis.
     pub away: Vec3,
+    /// The travel direction (`Sloth::dir`) it started with: travelling the
+    /// other way (a back-off, a turn back) undoes it.
+    #[serde(default = "plus_one")]
+    pub dir: f32,
+    /// The stances it has taken since it started or last turned toward its
+    /// target again (see [`Sloth::note_transfer_stance`]): the last
+    /// [`STANCES_KEPT`], by the grips of the four limbs, as a ring.
+    #[serde(default)]
+    pub stances: [[Vec3; 4]; STANCES_KEPT],
+    /// The limb whose step took each of [`Self::stances`] (its place in the
+    /// gait clock's footfall order).
+    #[serde(default)]
+    pub stance_limbs: [u8; STANCES_KEPT],
+    /// Stances recorded (the ring's next slot is this modulo [`STANCES_KEPT`]).
+    #[serde(default)]
+    pub stance_count: u32,
+}
+
+/// Stances a transfer remembers (see [`Transfer::stances`]).
+pub const STANCES_KEPT: usize = 6;
+
+/// Two stances are the same when every grip is this close (metres).
+const SAME_STANCE_M: f32 = 0.01;
+
+fn plus_one() -> f32 {
+    1.0
 }
 
 impl Sloth {
@@ -83,12 +109,73 @@ impl Sloth {
         } else {
             off_axis.normalize_or(fallback)
         };
+        // The same transfer started again (its first limb searches anew):
+        // its progress so far stands.
+        // The same transfer started again (its first limb searches anew):
+        // the stances it took stand.
+        let (dir, stances, stance_limbs, stance_count) = match self.transfer {
+            Some(t) if t.to == to && t.trunk == trunk => {
+                (t.dir, t.stances, t.stance_limbs, t.stance_count)
+            }
+            _ => (
+                self.dir,
+                [[Vec3::ZERO; 4]; STANCES_KEPT],
+                [0; STANCES_KEPT],
+                0,
+            ),
+        };
         self.transfer = Some(Transfer {
             to,
             trunk,
             side,
             away,
+            dir,
+            stances,
+            stance_limbs,
+            stance_count,
         });
+    }
+
+    /// Livelock watch of a transfer under way (issue 24), after limb `li`
+    /// took a step: a stance it took before (since it started, or last
+    /// turned toward its target) is taken again by the same limb's step, at
+    /// the same place in the footfall order. The steps since went round in
+    /// a circle — one limb re-gripping while the others find nothing, each
+    /// of its steps resetting the failed-search count (trunk_branch at 71.5°,
+    /// 0.2 m: LF among three grips for ever) — so the search gives up
+    /// as if no limb had found a step (`Sloth::give_up`: the cause is
+    /// `transfer_failed`; goal mode re-plans, wander mode turns back). A
+    /// back-off, a turn or travel turned back (undoing the transfer) steps
+    /// away from the target on purpose: the record starts again after it.
+    pub(super) fn note_transfer_stance(&mut self, env: &LocoView<'_>, li: usize) {
+        let Some(mut tr) = self.transfer else { return };
+        let stance = self.limbs.map(|l| l.grip.point);
+        if self.backoff.is_some() || self.turn.is_some() || self.dir != tr.dir {
+            tr.stance_count = 0;
+            self.transfer = Some(tr);
+            return;
+        }
+        let kept = (tr.stance_count as usize).min(STANCES_KEPT);
+        let again = (0..kept).any(|k| {
+            usize::from(tr.stance_limbs[k]) == li
+                && tr.stances[k]
+                    .iter()
+                    .zip(&stance)
+                    .all(|(a, b)| a.distance(*b) <= SAME_STANCE_M)
+        });
+        if again {
+            tr.stance_count = 0;
+            self.transfer = Some(tr);
+            if self.status == Status::Moving {
+                self.give_up(env);
+            }
+            return;
+        }
+        let slot = tr.stance_count as usize % STANCES_KEPT;
+        tr.stances[slot] = stance;
+        tr.stance_limbs[slot] = li as u8;
+        tr.stance_count = tr.stance_count.wrapping_add(1);
+        self.transfer = Some(tr);
     }
 
     /// Ends the transfer once all four limbs hold its target support (or
@@ -110,7 +197,11 @@ impl Sloth {
             let other = others.iter().copied().find(|&s| s != tr.trunk);
             let one_other = other.filter(|&o| others.iter().all(|&s| s == tr.trunk || s == o));
             self.transfer = match one_other {
-                Some(to) if others.contains(&tr.trunk) => Some(Transfer { to, ..tr }),
+                Some(to) if others.contains(&tr.trunk) => Some(Transfer {
+                    to,
+                    stance_count: 0,
+                    ..tr
+                }),
                 _ => None,
             };
             return;
