@@ -47,13 +47,21 @@ pub struct Transfer {
     /// Stances recorded (the ring's next slot is this modulo [`STANCES_KEPT`]).
     #[serde(default)]
     pub stance_count: u32,
+    /// Times each of [`Self::stances`] was taken again.
+    #[serde(default)]
+    pub stance_visits: [u8; STANCES_KEPT],
 }
 
 /// Stances a transfer remembers (see [`Transfer::stances`]).
 pub const STANCES_KEPT: usize = 6;
 
-/// Two stances are the same when every grip is this close (metres).
-const SAME_STANCE_M: f32 = 0.01;
+/// Two stances are the same when every grip is this close (metres; step
+/// candidates lie a back-off, 1 cm, apart).
+const SAME_STANCE_M: f32 = 0.001;
+
+/// A stance taken again this many times ends the transfer's try (see
+/// [`Sloth::note_transfer_stance`]).
+const STANCE_CIRCLES: u8 = 2;
 
 fn plus_one() -> f32 {
     1.0
@@ -113,13 +121,18 @@ impl Sloth {
         // its progress so far stands.
         // The same transfer started again (its first limb searches anew):
         // the stances it took stand.
-        let (dir, stances, stance_limbs, stance_count) = match self.transfer {
-            Some(t) if t.to == to && t.trunk == trunk => {
-                (t.dir, t.stances, t.stance_limbs, t.stance_count)
-            }
+        let (dir, stances, stance_limbs, stance_visits, stance_count) = match self.transfer {
+            Some(t) if t.to == to && t.trunk == trunk => (
+                t.dir,
+                t.stances,
+                t.stance_limbs,
+                t.stance_visits,
+                t.stance_count,
+            ),
             _ => (
                 self.dir,
                 [[Vec3::ZERO; 4]; STANCES_KEPT],
+                [0; STANCES_KEPT],
                 [0; STANCES_KEPT],
                 0,
             ),
@@ -132,50 +145,64 @@ impl Sloth {
             dir,
             stances,
             stance_limbs,
+            stance_visits,
             stance_count,
         });
     }
 
     /// Livelock watch of a transfer under way (issue 24), after limb `li`
-    /// took a step: a stance it took before (since it started, or last
-    /// turned toward its target) is taken again by the same limb's step, at
-    /// the same place in the footfall order. The steps since went round in
-    /// a circle — one limb re-gripping while the others find nothing, each
-    /// of its steps resetting the failed-search count (trunk_branch at 71.5°,
-    /// 0.2 m: LF among three grips for ever) — so the search gives up
-    /// as if no limb had found a step (`Sloth::give_up`: the cause is
-    /// `transfer_failed`; goal mode re-plans, wander mode turns back). A
-    /// back-off, a turn or travel turned back (undoing the transfer) steps
-    /// away from the target on purpose: the record starts again after it.
+    /// took a step: a stance it took twice before (since it started, or
+    /// last turned toward its target) is taken a third time, each time by
+    /// the same limb's step (at the same place in the footfall order). The
+    /// steps between went round the same circle twice — one limb
+    /// re-gripping while the others find nothing, each of its steps
+    /// resetting the failed-search count (trunk_branch at 71.5°, 0.2 m: LF
+    /// among three grips for ever) — so the search gives up as if no limb
+    /// had found a step (`Sloth::give_up`: the cause is `transfer_failed`;
+    /// goal mode re-plans, wander mode turns back). Once round is not
+    /// enough: what the stance does not show (the limbs' warm-started IK
+    /// poses) can let the second round end differently (trunk_branch at
+    /// 123°, 0.2 m, went round twice, then the fore limbs found their way
+    /// out on the branch). A back-off, a turn or travel turned back
+    /// (undoing the transfer) steps away from the target on purpose: the
+    /// record starts again after it.
     pub(super) fn note_transfer_stance(&mut self, env: &LocoView<'_>, li: usize) {
         let Some(mut tr) = self.transfer else { return };
-        let stance = self.limbs.map(|l| l.grip.point);
         if self.backoff.is_some() || self.turn.is_some() || self.dir != tr.dir {
             tr.stance_count = 0;
             self.transfer = Some(tr);
             return;
         }
+        let stance = self.limbs.map(|l| l.grip.point);
         let kept = (tr.stance_count as usize).min(STANCES_KEPT);
-        let again = (0..kept).any(|k| {
+        let seen = (0..kept).find(|&k| {
             usize::from(tr.stance_limbs[k]) == li
                 && tr.stances[k]
                     .iter()
                     .zip(&stance)
                     .all(|(a, b)| a.distance(*b) <= SAME_STANCE_M)
         });
-        if again {
-            tr.stance_count = 0;
-            self.transfer = Some(tr);
-            if self.status == Status::Moving {
-                self.give_up(env);
+        match seen {
+            Some(k) if tr.stance_visits[k] + 1 >= STANCE_CIRCLES => {
+                tr.stance_count = 0;
+                self.transfer = Some(tr);
+                if self.status == Status::Moving {
+                    self.give_up(env);
+                }
             }
-            return;
+            Some(k) => {
+                tr.stance_visits[k] += 1;
+                self.transfer = Some(tr);
+            }
+            None => {
+                let slot = tr.stance_count as usize % STANCES_KEPT;
+                tr.stances[slot] = stance;
+                tr.stance_limbs[slot] = li as u8;
+                tr.stance_visits[slot] = 0;
+                tr.stance_count = tr.stance_count.wrapping_add(1);
+                self.transfer = Some(tr);
+            }
         }
-        let slot = tr.stance_count as usize % STANCES_KEPT;
-        tr.stances[slot] = stance;
-        tr.stance_limbs[slot] = li as u8;
-        tr.stance_count = tr.stance_count.wrapping_add(1);
-        self.transfer = Some(tr);
     }
 
     /// Ends the transfer once all four limbs hold its target support (or
