@@ -37,13 +37,11 @@ pub struct Transfer {
     pub dir: f32,
     /// The stances it has taken since it started or last turned toward its
     /// target again (see [`Sloth::note_transfer_stance`]): the last
-    /// [`STANCES_KEPT`], by the grips of the four limbs, as a ring.
+    /// [`STANCES_KEPT`] as a ring, each by a key of the limb whose step took
+    /// it (its place in the footfall order) and the four grips to
+    /// [`STANCE_GRID_M`].
     #[serde(default)]
-    pub stances: [[Vec3; 4]; STANCES_KEPT],
-    /// The limb whose step took each of [`Self::stances`] (its place in the
-    /// gait clock's footfall order).
-    #[serde(default)]
-    pub stance_limbs: [u8; STANCES_KEPT],
+    pub stance_keys: [u32; STANCES_KEPT],
     /// Stances recorded (the ring's next slot is this modulo [`STANCES_KEPT`]).
     #[serde(default)]
     pub stance_count: u32,
@@ -52,12 +50,14 @@ pub struct Transfer {
     pub stance_visits: [u8; STANCES_KEPT],
 }
 
-/// Stances a transfer remembers (see [`Transfer::stances`]).
-pub const STANCES_KEPT: usize = 6;
+/// Stances a transfer remembers (see [`Transfer::stance_keys`]): a circle
+/// of steps by two limbs in turn (trunk_branch at 71.7°, 0.2 m: LF and LH)
+/// is a dozen steps long.
+pub const STANCES_KEPT: usize = 16;
 
-/// Two stances are the same when every grip is this close (metres; step
-/// candidates lie a back-off, 1 cm, apart).
-const SAME_STANCE_M: f32 = 0.001;
+/// Grid of the grips in a stance's key (metres; step candidates lie a
+/// back-off, 1 cm, apart; a circle repeats a stance to a micrometre).
+const STANCE_GRID_M: f32 = 1e-4;
 
 /// A stance taken again this many times ends the transfer's try (see
 /// [`Sloth::note_transfer_stance`]).
@@ -121,21 +121,11 @@ impl Sloth {
         // its progress so far stands.
         // The same transfer started again (its first limb searches anew):
         // the stances it took stand.
-        let (dir, stances, stance_limbs, stance_visits, stance_count) = match self.transfer {
-            Some(t) if t.to == to && t.trunk == trunk => (
-                t.dir,
-                t.stances,
-                t.stance_limbs,
-                t.stance_visits,
-                t.stance_count,
-            ),
-            _ => (
-                self.dir,
-                [[Vec3::ZERO; 4]; STANCES_KEPT],
-                [0; STANCES_KEPT],
-                [0; STANCES_KEPT],
-                0,
-            ),
+        let (dir, stance_keys, stance_visits, stance_count) = match self.transfer {
+            Some(t) if t.to == to && t.trunk == trunk => {
+                (t.dir, t.stance_keys, t.stance_visits, t.stance_count)
+            }
+            _ => (self.dir, [0; STANCES_KEPT], [0; STANCES_KEPT], 0),
         };
         self.transfer = Some(Transfer {
             to,
@@ -143,8 +133,7 @@ impl Sloth {
             side,
             away,
             dir,
-            stances,
-            stance_limbs,
+            stance_keys,
             stance_visits,
             stance_count,
         });
@@ -153,7 +142,8 @@ impl Sloth {
     /// Livelock watch of a transfer under way (issue 24), after limb `li`
     /// took a step: a stance it took twice before (since it started, or
     /// last turned toward its target) is taken a third time, each time by
-    /// the same limb's step (at the same place in the footfall order). The
+    /// the same limb's step (at the same place in the footfall order), its
+    /// grips on the same 0.1 mm grid. The
     /// steps between went round the same circle twice — one limb
     /// re-gripping while the others find nothing, each of its steps
     /// resetting the failed-search count (trunk_branch at 71.5°, 0.2 m: LF
@@ -173,15 +163,15 @@ impl Sloth {
             self.transfer = Some(tr);
             return;
         }
-        let stance = self.limbs.map(|l| l.grip.point);
+        let mut key = mix64(li as u64);
+        for l in &self.limbs {
+            for c in l.grip.point.to_array() {
+                key = mix64(key ^ ((c / STANCE_GRID_M).round() as i64 as u64));
+            }
+        }
+        let key = key as u32;
         let kept = (tr.stance_count as usize).min(STANCES_KEPT);
-        let seen = (0..kept).find(|&k| {
-            usize::from(tr.stance_limbs[k]) == li
-                && tr.stances[k]
-                    .iter()
-                    .zip(&stance)
-                    .all(|(a, b)| a.distance(*b) <= SAME_STANCE_M)
-        });
+        let seen = (0..kept).find(|&k| tr.stance_keys[k] == key);
         match seen {
             Some(k) if tr.stance_visits[k] + 1 >= STANCE_CIRCLES => {
                 tr.stance_count = 0;
@@ -196,8 +186,7 @@ impl Sloth {
             }
             None => {
                 let slot = tr.stance_count as usize % STANCES_KEPT;
-                tr.stances[slot] = stance;
-                tr.stance_limbs[slot] = li as u8;
+                tr.stance_keys[slot] = key;
                 tr.stance_visits[slot] = 0;
                 tr.stance_count = tr.stance_count.wrapping_add(1);
                 self.transfer = Some(tr);
