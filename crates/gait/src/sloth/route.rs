@@ -97,14 +97,28 @@ impl Sloth {
         let mut search = search_ahead(env, g);
         // Undoing a transfer (turned back with the trailing limbs on its
         // target): no steps along the target; the limb goes back to the
-        // support the leading limbs hold (see `next_neighbour`).
-        if self.transfer.is_some_and(|t| {
+        // support the leading limbs hold (see `next_neighbour`). Unless that
+        // support is out of its reach: then it steps back along the target
+        // toward it (its travel sign turned with the sloth's), so that a
+        // transfer locked half way can be undone (crowds: fore limbs high on
+        // a trunk, hind limbs on the branch out of their reach, sat there
+        // turning back and forth: `transfer_failed`).
+        let undoing = |t: &super::Transfer| {
             t.to == g.support
                 && !self.leads(Limb::ALL[li])
                 && Limb::ALL
                     .iter()
                     .all(|&l| !self.leads(l) || self.limbs[l.index()].grip.support != t.to)
-        }) {
+        };
+        let lead_in_reach = || {
+            Limb::ALL.iter().any(|&l| {
+                self.leads(l)
+                    && self
+                        .neighbour_search(env, li, self.limbs[l.index()].grip.support, 0)
+                        .is_some()
+            })
+        };
+        if self.transfer.is_some_and(|t| undoing(&t)) && lead_in_reach() {
             search.next_u = g.u - g.sdir;
             search.first_u = search.next_u;
             return search;

@@ -175,6 +175,7 @@ impl Sloth {
             self.failed_searches = 0;
             self.stalled_turns = 0;
             self.stuck_cause = None;
+            self.note_transfer_stance(env, li);
         }
         batch.len = 0;
         for li in 0..4 {
@@ -279,30 +280,36 @@ impl Sloth {
                 if self.failed_searches >= env.cfg.stop_after_failed_searches
                     && self.status == Status::Moving
                 {
-                    self.stuck_cause = Some(self.diagnose_stuck(env));
-                    // Wander mode: turn back, unless turning back already
-                    // failed to bring a step (tail-first walking is mostly out
-                    // of the limbs' reach: see README); then stop here.
-                    // Goal mode at a branch end with the goal behind, or a
-                    // wanderer whose turn backs brought no step (it would
-                    // stop): turn the body around.
-                    let stalled = self.wander && self.stalled_turns >= MAX_STALLED_TURNS;
-                    if (stalled && self.may_turn_around(env, false))
-                        || (self.goal_behind() && self.may_turn_around(env, true))
-                    {
-                        self.start_turn();
-                    } else if self.wander && self.stalled_turns < MAX_STALLED_TURNS {
-                        self.turn_back();
-                    } else if self.replan(env) {
-                        // Goal mode: backed off (or toward the goal again).
-                    } else {
-                        self.status = Status::NoGrip;
-                        if self.wander {
-                            self.resume_at = Some(self.time + env.cfg.wander_retry_s);
-                        }
-                    }
+                    self.give_up(env);
                 }
                 return;
+            }
+        }
+    }
+
+    /// The search gave up (no limb found a step for two gait cycles, or a
+    /// transfer made no progress for as long: `Sloth::watch_transfer`):
+    /// the cause is noted, then the sloth tries what it has. Wander mode:
+    /// turn back, unless turning back already failed to bring a step
+    /// (tail-first walking is mostly out of the limbs' reach: see README);
+    /// then stop here. Goal mode at a branch end with the goal behind, or a
+    /// wanderer whose turn backs brought no step (it would stop): turn the
+    /// body around. Goal mode otherwise: re-plan (`replan.rs`), else stop.
+    pub(super) fn give_up(&mut self, env: &LocoView<'_>) {
+        self.stuck_cause = Some(self.diagnose_stuck(env));
+        let stalled = self.wander && self.stalled_turns >= MAX_STALLED_TURNS;
+        if (stalled && self.may_turn_around(env, false))
+            || (self.goal_behind() && self.may_turn_around(env, true))
+        {
+            self.start_turn();
+        } else if self.wander && self.stalled_turns < MAX_STALLED_TURNS {
+            self.turn_back();
+        } else if self.replan(env) {
+            // Goal mode: backed off (or toward the goal again).
+        } else {
+            self.status = Status::NoGrip;
+            if self.wander {
+                self.resume_at = Some(self.time + env.cfg.wander_retry_s);
             }
         }
     }

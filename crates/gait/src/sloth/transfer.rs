@@ -10,7 +10,7 @@ use slothsim_scene::{SupportId, SupportKind};
 
 use crate::path::project;
 
-use super::{LimbPhase, LocoView, Sloth, mix64};
+use super::{LimbPhase, LocoView, Sloth, Status, mix64};
 
 /// On a trunk reached from a branch the body faces the trunk from this angle
 /// around it from the branch (radians): beside the branch, head clear of it.
@@ -31,6 +31,40 @@ pub struct Transfer {
     pub side: Vec3,
     /// Unit direction from the trunk's axis toward the branch, perpendicular to the axis.
     pub away: Vec3,
+    /// The travel direction (`Sloth::dir`) it started with: travelling the
+    /// other way (a back-off, a turn back) undoes it.
+    #[serde(default = "plus_one")]
+    pub dir: f32,
+    /// The stances it has taken since it started or last turned toward its
+    /// target again (see [`Sloth::note_transfer_stance`]): the last
+    /// [`STANCES_KEPT`] as a ring, each by a key of the limb whose step took
+    /// it (its place in the footfall order) and the four grips to
+    /// [`STANCE_GRID_M`].
+    #[serde(default)]
+    pub stance_keys: [u32; STANCES_KEPT],
+    /// Stances recorded (the ring's next slot is this modulo [`STANCES_KEPT`]).
+    #[serde(default)]
+    pub stance_count: u32,
+    /// Times each of [`Self::stances`] was taken again.
+    #[serde(default)]
+    pub stance_visits: [u8; STANCES_KEPT],
+}
+
+/// Stances a transfer remembers (see [`Transfer::stance_keys`]): a circle
+/// of steps by two limbs in turn (trunk_branch at 71.7°, 0.2 m: LF and LH)
+/// is a dozen steps long.
+pub const STANCES_KEPT: usize = 16;
+
+/// Grid of the grips in a stance's key (metres; step candidates lie a
+/// back-off, 1 cm, apart; a circle repeats a stance to a micrometre).
+const STANCE_GRID_M: f32 = 1e-4;
+
+/// A stance taken again this many times ends the transfer's try (see
+/// [`Sloth::note_transfer_stance`]).
+const STANCE_CIRCLES: u8 = 2;
+
+fn plus_one() -> f32 {
+    1.0
 }
 
 impl Sloth {
@@ -83,12 +117,81 @@ impl Sloth {
         } else {
             off_axis.normalize_or(fallback)
         };
+        // The same transfer started again (its first limb searches anew):
+        // its progress so far stands.
+        // The same transfer started again (its first limb searches anew):
+        // the stances it took stand.
+        let (dir, stance_keys, stance_visits, stance_count) = match self.transfer {
+            Some(t) if t.to == to && t.trunk == trunk => {
+                (t.dir, t.stance_keys, t.stance_visits, t.stance_count)
+            }
+            _ => (self.dir, [0; STANCES_KEPT], [0; STANCES_KEPT], 0),
+        };
         self.transfer = Some(Transfer {
             to,
             trunk,
             side,
             away,
+            dir,
+            stance_keys,
+            stance_visits,
+            stance_count,
         });
+    }
+
+    /// Livelock watch of a transfer under way (issue 24), after limb `li`
+    /// took a step: a stance it took twice before (since it started, or
+    /// last turned toward its target) is taken a third time, each time by
+    /// the same limb's step (at the same place in the footfall order), its
+    /// grips on the same 0.1 mm grid. The
+    /// steps between went round the same circle twice — one limb
+    /// re-gripping while the others find nothing, each of its steps
+    /// resetting the failed-search count (trunk_branch at 71.5°, 0.2 m: LF
+    /// among three grips for ever) — so the search gives up as if no limb
+    /// had found a step (`Sloth::give_up`: the cause is `transfer_failed`;
+    /// goal mode re-plans, wander mode turns back). Once round is not
+    /// enough: what the stance does not show (the limbs' warm-started IK
+    /// poses) can let the second round end differently (trunk_branch at
+    /// 123°, 0.2 m, went round twice, then the fore limbs found their way
+    /// out on the branch). A back-off, a turn or travel turned back
+    /// (undoing the transfer) steps away from the target on purpose: the
+    /// record starts again after it.
+    pub(super) fn note_transfer_stance(&mut self, env: &LocoView<'_>, li: usize) {
+        let Some(mut tr) = self.transfer else { return };
+        if self.backoff.is_some() || self.turn.is_some() || self.dir != tr.dir {
+            tr.stance_count = 0;
+            self.transfer = Some(tr);
+            return;
+        }
+        let mut key = mix64(li as u64);
+        for l in &self.limbs {
+            for c in l.grip.point.to_array() {
+                key = mix64(key ^ ((c / STANCE_GRID_M).round() as i64 as u64));
+            }
+        }
+        let key = key as u32;
+        let kept = (tr.stance_count as usize).min(STANCES_KEPT);
+        let seen = (0..kept).find(|&k| tr.stance_keys[k] == key);
+        match seen {
+            Some(k) if tr.stance_visits[k] + 1 >= STANCE_CIRCLES => {
+                tr.stance_count = 0;
+                self.transfer = Some(tr);
+                if self.status == Status::Moving {
+                    self.give_up(env);
+                }
+            }
+            Some(k) => {
+                tr.stance_visits[k] += 1;
+                self.transfer = Some(tr);
+            }
+            None => {
+                let slot = tr.stance_count as usize % STANCES_KEPT;
+                tr.stance_keys[slot] = key;
+                tr.stance_visits[slot] = 0;
+                tr.stance_count = tr.stance_count.wrapping_add(1);
+                self.transfer = Some(tr);
+            }
+        }
     }
 
     /// Ends the transfer once all four limbs hold its target support (or
@@ -110,7 +213,11 @@ impl Sloth {
             let other = others.iter().copied().find(|&s| s != tr.trunk);
             let one_other = other.filter(|&o| others.iter().all(|&s| s == tr.trunk || s == o));
             self.transfer = match one_other {
-                Some(to) if others.contains(&tr.trunk) => Some(Transfer { to, ..tr }),
+                Some(to) if others.contains(&tr.trunk) => Some(Transfer {
+                    to,
+                    stance_count: 0,
+                    ..tr
+                }),
                 _ => None,
             };
             return;
