@@ -117,10 +117,8 @@ fn pole_steady_gait_grips_carry_the_body_within_five_percent_bw() {
         time_limit_s: None,
         tolerances: Tolerances::default(),
     };
-    let cfg = LocomotionConfig {
-        release_residual_bw: 0.05,
-        ..LocomotionConfig::profile(Profile::Steady)
-    };
+    let cfg = LocomotionConfig::profile(Profile::Steady);
+    assert_eq!(cfg.release_residual_bw, 0.05, "the issue's default");
     let r = run_scenario(&spec(cfg.clone()), &Rig::sloth()).unwrap();
     assert_measures_within_issue_limits(&r);
     let g = r.grip_load_steady.as_ref().expect("a steady-state window");
