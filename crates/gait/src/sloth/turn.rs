@@ -22,7 +22,7 @@ use slothsim_scene::{SupportId, SupportKind};
 
 use crate::path::{axis_at, project};
 
-use super::body::{body_offset, smoothstep};
+use super::body::{body_offset, grip_out, smoothstep};
 use super::{Grip, LimbPhase, LocoView, Sloth};
 
 /// The most the body's heading turns during one limb's swing (radians).
@@ -346,11 +346,21 @@ impl Sloth {
             };
             let (o0, o1) = (out_to(roots[0]), out_to(roots[1]));
             let mid = (o0 + o1).normalize_or(o0);
+            // First the limb's own side at the step's end heading, where the
+            // walk grips it ([`grip_out`]), while that heading is within 60°
+            // of the branch's axis (across it, the side lies along the axis):
+            // the turn ends with each limb on its side for the handover.
+            let side = {
+                let g = grip_out(SupportKind::Branch, Limb::ALL[li], tr.fwd(to), tr.up, 0.0);
+                let g = g - a.tangent * a.tangent.dot(g);
+                if g.length() >= 0.5 { g.normalize() } else { o0 }
+            };
             // …then every 45° on around the branch from between them.
-            let mut outs = [mid; AROUND + 2];
-            outs[0] = o0;
-            outs[1] = o1;
-            for (m, o) in outs.iter_mut().skip(2).enumerate() {
+            let mut outs = [mid; AROUND + 3];
+            outs[0] = side;
+            outs[1] = o0;
+            outs[2] = o1;
+            for (m, o) in outs.iter_mut().skip(3).enumerate() {
                 let k = (m / 2 + 1) as f32 * if m % 2 == 0 { 1.0 } else { -1.0 };
                 *o = Quat::from_axis_angle(a.tangent, k * std::f32::consts::FRAC_PI_4) * mid;
             }
@@ -362,7 +372,7 @@ impl Sloth {
                 if env.crowd.is_some_and(|g| g.blocked(self.id, grip)) {
                     return None;
                 }
-                let handover = done && self.hands_over(tr, li, grip);
+                let handover = done && self.hands_over(tr, li, grip, out);
                 let step = TurnStep {
                     limb: li,
                     grip,
@@ -381,19 +391,31 @@ impl Sloth {
         })
     }
 
-    /// Whether, with limb `li` at `grip`, the heading the other way can be
-    /// handed back to formula 6: formula 6 of that stance within
-    /// [`HANDOVER_COS`] of it, and both fore grips ahead of both hind grips
-    /// along it (the leg order the walk goes on with).
-    fn hands_over(&self, tr: &Turn, li: usize, grip: Vec3) -> bool {
+    /// Whether, with limb `li` at `grip` (surface normal `normal`), the
+    /// heading the other way can be handed back to formula 6: formula 6 of
+    /// that stance within [`HANDOVER_COS`] of it, both fore grips ahead of
+    /// both hind grips along it (the leg order the walk goes on with), and
+    /// every grip on its own limb's side of the branch (not past the
+    /// vertical plane through the axis toward the other side: the walk grips
+    /// each limb at its side, [`grip_out`], and a limb crossed under the body
+    /// to the far side of a thick branch finds no step back to it).
+    fn hands_over(&self, tr: &Turn, li: usize, grip: Vec3, normal: Vec3) -> bool {
         let mut t = self.limbs.map(|l| l.grip.point);
+        let mut n = self.limbs.map(|l| l.grip.normal);
         t[li] = grip;
+        n[li] = normal;
         let back = tr.fwd(PI);
         let f6 = self.formula6_fwd(&t);
         let along = |l: Limb| t[l.index()].dot(back);
         let fore = along(Limb::LF).min(along(Limb::RF));
         let hind = along(Limb::LH).max(along(Limb::RH));
-        f6.dot(back) >= HANDOVER_COS && fore > hind
+        let own_side = Limb::ALL
+            .iter()
+            .all(|&l| n[l.index()].dot(grip_out(SupportKind::Branch, l, back, tr.up, 0.0)) >= 0.0);
+        // Every limb has re-gripped at the other way without reaching its
+        // side: hand over as it stands rather than stop.
+        let tried = tr.angle >= PI - 1e-4 && usize::from(tr.idle) >= Limb::ALL.len();
+        f6.dot(back) >= HANDOVER_COS && fore > hind && (own_side || tried)
     }
 
     /// Whether limb `li`, once at its turning step's grip, still reaches it
