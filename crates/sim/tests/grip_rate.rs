@@ -7,8 +7,8 @@ use slothsim_rig::Rig;
 use slothsim_scene::{ForestConfig, generate_forest};
 use slothsim_sim::{CROWD_LOAD_EVERY, Crowd, CrowdSpec, ForestSource, GripLoad, Locomotion};
 
-#[test]
-fn a_crowd_solves_each_sloth_every_fourth_frame_staggered_by_id() {
+/// 40 sloths with default locomotion on a small six-tree forest.
+fn small_crowd(seed: u64) -> Crowd {
     let forest = ForestConfig {
         trees: 6,
         area_m: 25.0,
@@ -16,14 +16,18 @@ fn a_crowd_solves_each_sloth_every_fourth_frame_staggered_by_id() {
     };
     let spec = CrowdSpec {
         sloths: 40,
-        seed: 7,
+        seed,
         dt: 1.0 / 60.0,
         cfg: LocomotionConfig::default(),
         clearance_m: 0.3,
     };
     let scene = generate_forest(&forest).unwrap();
-    let mut crowd =
-        Crowd::new(spec, &Rig::sloth(), scene, ForestSource::Procedural(forest)).unwrap();
+    Crowd::new(spec, &Rig::sloth(), scene, ForestSource::Procedural(forest)).unwrap()
+}
+
+#[test]
+fn a_crowd_solves_each_sloth_every_fourth_frame_staggered_by_id() {
+    let mut crowd = small_crowd(7);
     let every = CROWD_LOAD_EVERY as usize;
     assert_eq!(every, 4);
     for _ in 0..10 {
@@ -71,21 +75,7 @@ fn a_crowd_solves_each_sloth_every_fourth_frame_staggered_by_id() {
 /// crowd (paired, single and skipped solves alike).
 #[test]
 fn centre_of_mass_from_solved_joints_is_forward_kinematics_bit_for_bit() {
-    let forest = ForestConfig {
-        trees: 6,
-        area_m: 25.0,
-        ..ForestConfig::default()
-    };
-    let spec = CrowdSpec {
-        sloths: 40,
-        seed: 11,
-        dt: 1.0 / 60.0,
-        cfg: LocomotionConfig::default(),
-        clearance_m: 0.3,
-    };
-    let scene = generate_forest(&forest).unwrap();
-    let mut crowd =
-        Crowd::new(spec, &Rig::sloth(), scene, ForestSource::Procedural(forest)).unwrap();
+    let mut crowd = small_crowd(11);
     let mut checked = 0;
     for _ in 0..240 {
         crowd.tick();
