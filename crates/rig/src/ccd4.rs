@@ -92,7 +92,7 @@ pub struct LimbChains4 {
     soa: Option<Chains>,
     /// The same at eight lanes (lane `i` = chain `i % 4`) with its forward
     /// kinematics' first joint, for [`solve8_prepared_tolerances`] and
-    /// [`LimbChains4::fk_effectors8`]; `None` also where the CPU lacks AVX2.
+    /// [`LimbChains4::fk_joints8`]; `None` also where the CPU lacks AVX2.
     #[cfg(target_arch = "x86_64")]
     soa8: Option<(lanes8::Chains, (lanes8::V, lanes8::Q))>,
     /// The forward kinematics' first joint before its pose: its position
@@ -128,38 +128,9 @@ impl LimbChains4 {
         &self.chains
     }
 
-    /// The four effectors in world space, lane `i` exactly
-    /// `chains()[i].fk_effector(roots[i], &poses[i])` (the forward kinematics
-    /// of [`LimbChain::fk_local`] in SIMD lanes, its operations in its order).
-    pub fn fk_effectors(&self, roots: &[RootTransform; 4], poses: &[ChainPose; 4]) -> [Vec3; 4] {
-        match (&self.soa, self.fk_first) {
-            (Some(c), Some(first)) => lanes4::fk_effectors(c, first, roots, poses),
-            _ => std::array::from_fn(|i| self.chains[i].fk_effector(roots[i], &poses[i])),
-        }
-    }
-
-    /// [`LimbChains4::fk_effectors`] of two sets of the four chains (lane `i`
-    /// on chain `i % 4`), in one AVX register where the CPU has AVX2; the same
-    /// bits.
-    pub fn fk_effectors8(&self, roots: &[RootTransform; 8], poses: &[ChainPose; 8]) -> [Vec3; 8] {
-        #[cfg(target_arch = "x86_64")]
-        if let Some((c8, first)) = &self.soa8 {
-            // SAFETY: `soa8` exists only where the CPU has AVX2 (see `LimbChains4::new`).
-            return unsafe { fk8_avx2(c8, *first, roots, poses) };
-        }
-        let half = |k: usize| {
-            self.fk_effectors(
-                &std::array::from_fn(|i| roots[k + i]),
-                &std::array::from_fn(|i| poses[k + i]),
-            )
-        };
-        let (a, b) = (half(0), half(4));
-        std::array::from_fn(|i| if i < 4 { a[i] } else { b[i - 4] })
-    }
-
     /// Joints 1..3 and the effector of each lane in world space, lane `i`
     /// exactly `chains()[i].fk(roots[i], &poses[i])[1..5]` (index 3 is
-    /// [`LimbChains4::fk_effectors`]'s effector, bit for bit).
+    /// the chain's `fk_effector`, bit for bit).
     pub fn fk_joints(&self, roots: &[RootTransform; 4], poses: &[ChainPose; 4]) -> [[Vec3; 4]; 4] {
         match (&self.soa, self.fk_first) {
             (Some(c), Some(first)) => lanes4::fk_joints(c, first, roots, poses),
@@ -199,18 +170,6 @@ fn fk_joints8_avx2(
     poses: &[ChainPose; 8],
 ) -> [[Vec3; 4]; 8] {
     lanes8::fk_joints(c, first, roots, poses)
-}
-
-/// [`lanes8::fk_effectors`], compiled with AVX2.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-fn fk8_avx2(
-    c: &lanes8::Chains,
-    first: (lanes8::V, lanes8::Q),
-    roots: &[RootTransform; 8],
-    poses: &[ChainPose; 8],
-) -> [Vec3; 8] {
-    lanes8::fk_effectors(c, first, roots, poses)
 }
 
 /// Solve four limb chains at once (one per SIMD lane; see the module docs). Each lane
@@ -418,54 +377,8 @@ mod tests {
         )
     }
 
-    /// The SIMD forward kinematics equal the scalar one, bit for bit.
-    #[test]
-    fn fk_effectors_match_scalar_bit_for_bit() {
-        let rig = Rig::sloth();
-        let chains: [&LimbChain; 4] = std::array::from_fn(|i| &rig.chains()[i]);
-        let prepared = LimbChains4::new(chains);
-        let mut s = 0xf00d_u64;
-        for _ in 0..5000 {
-            let roots: [RootTransform; 4] = std::array::from_fn(|_| root(&mut s));
-            let poses: [ChainPose; 4] = std::array::from_fn(|i| {
-                let u: [f32; 12] = std::array::from_fn(|_| rnd(&mut s));
-                chains[i].sample_pose(&u)
-            });
-            let fk = prepared.fk_effectors(&roots, &poses);
-            for i in 0..4 {
-                let want = chains[i].fk_effector(roots[i], &poses[i]);
-                assert_eq!(
-                    fk[i].to_array().map(f32::to_bits),
-                    want.to_array().map(f32::to_bits)
-                );
-            }
-        }
-    }
-
-    /// The eight-lane forward kinematics gives `fk_effector`'s bits, lane by lane.
-    #[test]
-    fn fk_effectors8_match_scalar_bit_for_bit() {
-        let rig = Rig::sloth();
-        let chains: [&LimbChain; 4] = std::array::from_fn(|i| &rig.chains()[i]);
-        let prepared = LimbChains4::new(chains);
-        let mut s = 0xf8_u64;
-        for _ in 0..3000 {
-            let roots: [RootTransform; 8] = std::array::from_fn(|_| root(&mut s));
-            let poses: [ChainPose; 8] = std::array::from_fn(|i| {
-                let u: [f32; 12] = std::array::from_fn(|_| rnd(&mut s));
-                chains[i % 4].sample_pose(&u)
-            });
-            let fk = prepared.fk_effectors8(&roots, &poses);
-            for i in 0..8 {
-                let want = chains[i % 4].fk_effector(roots[i], &poses[i]);
-                assert_eq!(
-                    fk[i].to_array().map(f32::to_bits),
-                    want.to_array().map(f32::to_bits)
-                );
-            }
-        }
-    }
-
+    /// The SIMD forward kinematics (four and eight lanes) equal the scalar one,
+    /// bit for bit, joint by joint and at the effector.
     #[test]
     fn fk_joints_match_scalar_bit_for_bit() {
         let rig = Rig::sloth();
@@ -484,7 +397,6 @@ mod tests {
                 &std::array::from_fn(|i| roots[i]),
                 &std::array::from_fn(|i| poses[i]),
             );
-            let eff = prepared.fk_effectors8(&roots, &poses);
             for i in 0..8 {
                 let want = chains[i % 4].fk(roots[i], &poses[i]);
                 for k in 0..4 {
@@ -493,7 +405,8 @@ mod tests {
                         assert_eq!(bits(j4[i][k]), bits(want[1 + k]), "lane {i} joint {k}");
                     }
                 }
-                assert_eq!(bits(j8[i][3]), bits(eff[i]));
+                let eff = chains[i % 4].fk_effector(roots[i], &poses[i]);
+                assert_eq!(bits(j8[i][3]), bits(eff));
             }
         }
     }

@@ -1075,7 +1075,7 @@ fn run(
 /// Joints 1..3 and the effector in world space, lane `i` exactly `fk(roots[i],
 /// &poses[i])[1..5]` of its chain (the forward kinematics of
 /// [`LimbChain::fk_local`] in SIMD lanes, its operations in its order; index 3
-/// is [`fk_effectors`]'s effector).
+/// is the effector).
 #[inline(always)]
 pub(super) fn fk_joints(
     c: &Chains,
@@ -1118,33 +1118,4 @@ pub(super) fn fk_first(c: &Chains) -> (V, Q) {
         V::ZERO.add(Q::IDENTITY.rotate(c.offsets[0])),
         Q::IDENTITY.mul(c.rest[0]),
     )
-}
-
-/// The effectors in world space, lane `i` exactly `fk_effector(roots[i],
-/// &poses[i])` of its chain (the forward kinematics of
-/// [`LimbChain::fk_local`] in SIMD lanes, its operations in its order).
-#[inline(always)]
-pub(super) fn fk_effectors(
-    c: &Chains,
-    (first_pos, first_rest): (V, Q),
-    roots: &[RootTransform; N],
-    poses: &[ChainPose; N],
-) -> [Vec3; N] {
-    // (No closures on lane values: they would not inherit the AVX of the
-    // eight-lane build.)
-    let mut pose = [Q::IDENTITY; CHAIN_JOINTS];
-    for (j, q) in pose.iter_mut().enumerate() {
-        *q = Q::gather(poses.map(|p| p.0[j]));
-    }
-    let mut parent_pos = first_pos;
-    let mut parent_rot = first_rest.mul(pose[0]);
-    for ((offset, rest), q) in c.offsets.iter().zip(&c.rest).zip(&pose).skip(1) {
-        parent_pos = parent_pos.add(parent_rot.rotate(*offset));
-        parent_rot = parent_rot.mul(*rest).mul(*q);
-    }
-    let local = parent_pos.add(parent_rot.rotate(c.effector));
-    let rot = Q::gather(roots.map(|r| r.rotation));
-    let pos = V::gather(roots.map(|r| r.position));
-    // `RootTransform::transform_point`: `position + rotation * p`.
-    pos.add(rot.rotate(local)).scatter().map(Vec3::from)
 }
