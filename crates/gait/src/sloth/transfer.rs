@@ -45,7 +45,7 @@ pub struct Transfer {
     /// Stances recorded (the ring's next slot is this modulo [`STANCES_KEPT`]).
     #[serde(default)]
     pub stance_count: u32,
-    /// Times each of [`Self::stances`] was taken again.
+    /// Times each of [`Self::stance_keys`] was taken again.
     #[serde(default)]
     pub stance_visits: [u8; STANCES_KEPT],
 }
@@ -117,8 +117,6 @@ impl Sloth {
         } else {
             off_axis.normalize_or(fallback)
         };
-        // The same transfer started again (its first limb searches anew):
-        // its progress so far stands.
         // The same transfer started again (its first limb searches anew):
         // the stances it took stand.
         let (dir, stance_keys, stance_visits, stance_count) = match self.transfer {
