@@ -283,6 +283,8 @@ fn build(args: &BenchArgs, plan: &Plan, rig: &Rig, n: u32) -> Result<(Crowd, u32
 struct Measured {
     frame_ms: Vec<f64>,
     stages: Vec<[f64; slothsim_sim::STAGES]>,
+    /// The neighbour grid's rebuild per frame (ms, a part of Transitions).
+    grid: Vec<f64>,
     traces: u64,
     ccd_iterations: u64,
     /// State hash after `hash_at` frames, when asked.
@@ -314,6 +316,7 @@ fn measure(crowd: &mut Crowd, warmup: usize, frames: usize, hash_at: Option<usiz
     }
     let t = crowd.timings();
     let stages = t.history[rows0..rows0 + frames].to_vec();
+    let grid = t.grid_history[rows0..rows0 + frames].to_vec();
     let traces = t.traces_total - traces0;
     let ccd_iterations = t.ccd_iterations_total - iters0;
     // The baseline ran longer than the timed run: catch up for the state check.
@@ -326,6 +329,7 @@ fn measure(crowd: &mut Crowd, warmup: usize, frames: usize, hash_at: Option<usiz
     Measured {
         frame_ms,
         stages,
+        grid,
         traces,
         ccd_iterations,
         hash,
@@ -385,7 +389,7 @@ fn run_size(args: &BenchArgs, plan: &Plan, rig: &Rig, n: u32) -> Result<RunRepor
         trees,
         frames,
         frame_ms,
-        stages_ms: StagesMs::of(&m.stages),
+        stages_ms: StagesMs::of(&m.stages, &m.grid),
         us_per_sloth_p50: frame_ms.p50 * 1e3 / n as f64,
         traces_per_frame: m.traces as f64 / frames as f64,
         ccd_iterations_per_limb: m.ccd_iterations as f64 / (frames as f64 * n as f64 * 4.0),
@@ -536,7 +540,7 @@ pub fn run(args: BenchArgs) -> Result<bool> {
 fn print_run(r: &RunReport) {
     let s = &r.stages_ms;
     println!(
-        "{} sloths: frame ms p50 {:.2}, p95 {:.2}, max {:.2} ({:.2} µs/sloth); stage p50/p95: trace {:.2}/{:.2}, step_search {:.2}/{:.2}, body_average {:.2}/{:.2}, ccd_solve {:.2}/{:.2}, grip_load {:.2}/{:.2}, transitions {:.2}/{:.2}; {:.0} traces/frame, {:.2} CCD iterations/limb",
+        "{} sloths: frame ms p50 {:.2}, p95 {:.2}, max {:.2} ({:.2} µs/sloth); stage p50/p95: trace {:.2}/{:.2}, step_search {:.2}/{:.2}, body_average {:.2}/{:.2}, ccd_solve {:.2}/{:.2}, grip_load {:.2}/{:.2}, transitions {:.2}/{:.2} (grid rebuild {:.2}/{:.2}); {:.0} traces/frame, {:.2} CCD iterations/limb",
         r.sloths,
         r.frame_ms.p50,
         r.frame_ms.p95,
@@ -554,6 +558,8 @@ fn print_run(r: &RunReport) {
         s.grip_load.p95,
         s.transitions.p50,
         s.transitions.p95,
+        s.grid_rebuild.p50,
+        s.grid_rebuild.p95,
         r.traces_per_frame,
         r.ccd_iterations_per_limb
     );

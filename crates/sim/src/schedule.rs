@@ -5,7 +5,8 @@
 //! whole table slices (`contiguous_par_iter_mut` on bevy's compute task pool):
 //! a worker takes `CHUNK` (32) sloths through all six stages, then the next
 //! ones (CcdSolve solves the sloths of a chunk two by two in SIMD lanes). Then
-//! the serial end of Transitions rebuilds the neighbour grid. The same bits as
+//! the end of Transitions rebuilds the neighbour grid (a stable counting sort
+//! in parallel jobs on the same pool). The same bits as
 //! six stages over the whole crowd one after another, with one fork/join a
 //! tick instead of six and each sloth's state fetched from memory once.
 //!
@@ -21,7 +22,7 @@ use bevy_ecs::batching::BatchingStrategy;
 use bevy_ecs::prelude::*;
 use bevy_ecs::schedule::SingleThreadedExecutor;
 use bevy_tasks::{ComputeTaskPool, TaskPoolBuilder};
-use slothsim_gait::Sloth;
+use slothsim_gait::{HashedPoint, Job, Jobs, Sloth};
 
 use crate::world::{
     BodyAverageMemo, CcdMemo, CrowdNeighbours, CrowdPoints, GripLoad, GripLoadEvery, Locomotion,
@@ -58,6 +59,8 @@ pub struct StageTimings {
     pub last: [f64; STAGES],
     /// Every frame's stage times, in order.
     pub history: Vec<[f64; STAGES]>,
+    /// Every frame's neighbour-grid rebuild (ms; a part of Transitions' time).
+    pub grid_history: Vec<f64>,
     /// Traces run in the last frame.
     pub traces_last: u64,
     /// Traces run in all frames.
@@ -267,8 +270,22 @@ fn sloth_pass(
     timings.ccd_iterations_total += timings.ccd_iterations_last;
 }
 
+/// Runs the grid rebuild's jobs on bevy's compute pool.
+struct PoolJobs;
+
+impl Jobs for PoolJobs {
+    fn run<'a>(&self, jobs: Vec<Job<'a>>) {
+        ComputeTaskPool::get().scope(|s| {
+            for job in jobs {
+                s.spawn(async move { job() });
+            }
+        });
+    }
+}
+
 /// The end of the tick, after [`sloth_pass`]: the neighbour grid rebuilt from
-/// the points the pass hashed (counted in Transitions' time), the frame count.
+/// the points the pass hashed (counted in Transitions' time, and on its own
+/// in [`StageTimings::grid_history`]), the frame count.
 fn grid_rebuild(
     mut crowd: Option<ResMut<CrowdNeighbours>>,
     mut clock: ResMut<SimClock>,
@@ -279,12 +296,27 @@ fn grid_rebuild(
     // Sloths meet sloths: the next tick reads this tick's bodies and grips.
     // The same grid as `CrowdNeighbours::rebuild` of the sloths (id order).
     if let Some(crowd) = crowd.as_deref_mut() {
-        crowd
-            .grid
-            .rebuild_hashed(q.iter().map(|(id, pts)| (id.0, &pts.0)));
+        let tables: Vec<(&[SlothId], &[CrowdPoints])> = match q.contiguous_iter() {
+            Ok(it) => it.collect(),
+            Err(_) => Vec::new(),
+        };
+        if let [(ids, pts)] = tables[..] {
+            crowd
+                .grid
+                .rebuild_hashed_with(ids.len(), |i| (ids[i].0, &pts[i].0), &PoolJobs);
+        } else {
+            // Several tables (or none): the points gathered in query order first.
+            let all: Vec<(u32, &[HashedPoint; 7])> =
+                q.iter().map(|(id, pts)| (id.0, &pts.0)).collect();
+            crowd
+                .grid
+                .rebuild_hashed_with(all.len(), |i| all[i], &PoolJobs);
+        }
     }
     clock.frame += 1;
-    timings.last[5] += ms(t);
+    let grid_ms = ms(t);
+    timings.last[5] += grid_ms;
+    timings.grid_history.push(grid_ms);
     let last = timings.last;
     timings.history.push(last);
 }
@@ -308,7 +340,7 @@ pub fn build_schedule() -> Schedule {
             .chain(),
     );
     // The six stages run as one per-sloth pass (see `sloth_pass`), then
-    // the serial end of Transitions.
+    // the end of Transitions (the grid rebuild).
     s.add_systems((
         sloth_pass.in_set(SimSystems::Trace),
         grid_rebuild.in_set(SimSystems::Transitions),

@@ -334,11 +334,14 @@ pub struct StagesMs {
     pub grip_load: Percentiles,
     /// Transitions stage (includes rebuilding the neighbour grid).
     pub transitions: Percentiles,
+    /// The neighbour grid's rebuild alone (a part of `transitions`).
+    pub grid_rebuild: Percentiles,
 }
 
 impl StagesMs {
-    /// From per-frame stage times (columns in [`StageTimings::NAMES`](crate::StageTimings::NAMES) order).
-    pub fn of(history: &[[f64; crate::STAGES]]) -> Self {
+    /// From per-frame stage times (columns in [`StageTimings::NAMES`](crate::StageTimings::NAMES) order)
+    /// and per-frame grid rebuild times.
+    pub fn of(history: &[[f64; crate::STAGES]], grid: &[f64]) -> Self {
         let col = |i: usize| Percentiles::of(&history.iter().map(|r| r[i]).collect::<Vec<_>>());
         StagesMs {
             trace: col(0),
@@ -347,6 +350,7 @@ impl StagesMs {
             ccd_solve: col(3),
             grip_load: col(4),
             transitions: col(5),
+            grid_rebuild: Percentiles::of(grid),
         }
     }
 }
@@ -421,7 +425,7 @@ impl Crowd {
             state_hash,
             speed_mps_mean: gait.speed_mps_mean,
             frame_ms: Percentiles::of(&frame_ms),
-            stages_ms: StagesMs::of(&history),
+            stages_ms: StagesMs::of(&history, &self.timings().grid_history.clone()),
             observe_ms: Percentiles::of(&self.observe_ms),
             traces_per_frame_mean: self.timings().traces_total as f64 / frames.max(1) as f64,
             max_grip_slip_m: judge.max_grip_slip_m,
