@@ -248,7 +248,7 @@ impl Sloth {
             let along = d.dot(p.axis.tangent * at.sdir);
             around >= 0.0 && along >= -SIDE_STEP_AXIAL_SLACK && around + along.max(0.0) >= min_step
         } else if at.retreat {
-            step <= -env.cfg.min_step_m
+            step <= -env.cfg.min_step_m && self.retreat_keeps_lead(env, at, p)
         } else {
             // A transfer step goes where the other support is (reach decides).
             p.transfer_step || step >= min_step
@@ -266,6 +266,29 @@ impl Sloth {
         !p.pair.is_some_and(|(pi, ..)| {
             (0..4).any(|k| k != at.limb && k != pi && self.limbs[k].phase == LimbPhase::Swinging)
         })
+    }
+
+    /// A retreat (stage 2) of a leading limb a step ahead of its girdle
+    /// partner, both on a support that goes on ahead of it, keeps it a step
+    /// ahead: the partner has a window to step into, and retreating level
+    /// with it closes that (tail first down a 0.08 m trunk from a branch at
+    /// 122°, LH retreated level with RH just under the fore limbs, and no
+    /// limb had a step left; RH had one down). Near the support's end, with
+    /// the girdle across two supports, in a transfer (its retreats rearrange
+    /// the limbs) or a back-off (it steps away on purpose), any retreat goes.
+    fn retreat_keeps_lead(&self, env: &LocoView<'_>, at: &CandidateAt, p: &Placement) -> bool {
+        let g = self.limbs[at.limb].grip;
+        let opp = self.limbs[p.limb.opposite().index()].grip;
+        let len = env.scene().support(g.support).length();
+        let left = if g.sdir > 0.0 { len - g.u } else { g.u };
+        let lead = |at: Vec3| (at - opp.point).dot(p.travel);
+        !self.leads(p.limb)
+            || self.transfer.is_some()
+            || self.backoff.is_some()
+            || opp.support != g.support
+            || left < env.cfg.search_distance_m + env.cfg.end_margin_m
+            || lead(p.cur) < env.cfg.min_step_m
+            || lead(p.grip) >= env.cfg.min_step_m
     }
 
     /// Stage 3: leg order (thesis `CheckLegsOrder`), measured along the
