@@ -20,8 +20,26 @@ use crate::model::{GripLoads, MAX_GRIPS, SolveMethod, Stance, slacks_scaled};
 /// and for anything the general path must judge (invalid parameters or input, more than
 /// [`MAX_GRIPS`] grips, no grips).
 pub(crate) fn closed_form(params: &LoadParams, stance: &Stance) -> Option<GripLoads> {
+    match closed_or_wrench(params, stance)? {
+        Closed::Inside(out) => Some(out),
+        Closed::Outside(..) => None,
+    }
+}
+
+/// What the closed form found: the answer, or (when some force leaves its grip set) the
+/// problem in wrench space with the unconstrained optimum's residual `r` (scaled), where
+/// [`crate::dual`]'s Newton steps can start. Both on the stack, once per solve.
+#[allow(clippy::large_enum_variant)]
+pub(crate) enum Closed {
+    Inside(GripLoads),
+    Outside(Wrench, [f64; 6]),
+}
+
+/// [`closed_form`], handing back the wrench-space problem when the optimum is not inside.
+/// `None` for what only the general path may judge (as [`closed_form`]).
+pub(crate) fn closed_or_wrench(params: &LoadParams, stance: &Stance) -> Option<Closed> {
     let k = stance.grips.len();
-    if k == 0 || k > MAX_GRIPS || params.validate().is_err() {
+    if k == 0 || k > MAX_GRIPS || !params_valid(params) {
         return None;
     }
     let finite = stance.com.is_finite()
@@ -40,42 +58,16 @@ pub(crate) fn closed_form(params: &LoadParams, stance: &Stance) -> Option<GripLo
     let com = DVec3::from(stance.com);
     let mut d = [DVec3::ZERO; MAX_GRIPS];
     let mut sum = DVec3::ZERO;
-    let mut q = [[0.0; 3]; 3];
     for (i, g) in stance.grips.iter().enumerate() {
         d[i] = (DVec3::from(g.point) - com) / arm;
         sum += d[i];
-        let dd = d[i].length_squared();
-        let di = d[i].to_array();
-        for r in 0..3 {
-            for c in 0..3 {
-                q[r][c] += if r == c { dd } else { 0.0 } - di[r] * di[c];
-            }
-        }
-    }
-    // M = I + ρ A Aᵀ; [S]× v = S × v.
-    let s = sum.to_array();
-    let cross = [[0.0, -s[2], s[1]], [s[2], 0.0, -s[0]], [-s[1], s[0], 0.0]];
-    let mut m = [[0.0; 6]; 6];
-    for r in 0..3 {
-        for c in 0..3 {
-            m[r][c] = if r == c { k as f64 } else { 0.0 };
-            m[r][3 + c] = -cross[r][c];
-            m[3 + r][c] = cross[r][c];
-            m[3 + r][3 + c] = q[r][c];
-        }
-    }
-    for r in 0..6 {
-        for c in 0..6 {
-            m[r][c] = rho * m[r][c] + if r == c { 1.0 } else { 0.0 };
-        }
     }
     let need_f =
         (DVec3::from(stance.com_acc) - DVec3::new(0.0, -params.gravity, 0.0)) / params.gravity;
     let need_t = DVec3::from(stance.ang_mom_rate) / (weight * arm);
     let b = [need_f.x, need_f.y, need_f.z, need_t.x, need_t.y, need_t.z];
-    let r = cholesky6(&mut m, b)?;
-    let r_f = DVec3::new(r[0], r[1], r[2]);
-    let r_t = DVec3::new(r[3], r[4], r[5]);
+    let (r_f, r_t) = wrench_solve(&d[..k], sum, rho, need_f, need_t)?;
+    let r = [r_f.x, r_f.y, r_f.z, r_t.x, r_t.y, r_t.z];
     let mut out = GripLoads {
         count: k as u8,
         residual_force: (r_f * weight).as_vec3(),
@@ -83,47 +75,170 @@ pub(crate) fn closed_form(params: &LoadParams, stance: &Stance) -> Option<GripLo
         method: SolveMethod::ClosedForm,
         ..GripLoads::default()
     };
+    let mut normal = [DVec3::Y; MAX_GRIPS];
+    let mut inside = true;
     for (i, g) in stance.grips.iter().enumerate() {
-        let n = DVec3::from(g.normal).try_normalize()?;
+        normal[i] = DVec3::from(g.normal).try_normalize()?;
+        if !inside {
+            continue;
+        }
         let x = rho * (r_f + r_t.cross(d[i]));
         let (u, p, c) = slacks_scaled(
             params.mu,
             params.grip_strength_bw,
             params.push_strength_bw,
-            n,
+            normal[i],
             x,
         );
         // Strictly inside, as the general path demands (NaN fails too).
         if !(u > 0.0 && p > 0.0 && c > 0.0) {
-            return None;
+            inside = false;
+            continue;
         }
         out.forces[i] = (x * weight).as_vec3();
+    }
+    if !inside {
+        let w = Wrench {
+            k,
+            d,
+            normal,
+            b,
+            rho,
+            mu: params.mu,
+            grip: params.grip_strength_bw,
+            push: params.push_strength_bw,
+            weight,
+            arm,
+        };
+        return r.iter().all(|v| v.is_finite()).then(|| Closed::Outside(w, r));
     }
     let all_finite = out.forces.iter().all(|f| f.is_finite())
         && out.residual_force.is_finite()
         && out.residual_torque.is_finite();
-    all_finite.then_some(out)
+    all_finite.then_some(Closed::Inside(out))
 }
 
-/// Solve `M y = b` for symmetric positive definite 6×6 `M` (overwritten) by Cholesky;
-/// `None` if not positive definite.
-fn cholesky6(m: &mut [[f64; 6]; 6], b: [f64; 6]) -> Option<[f64; 6]> {
+/// The scaled problem in wrench space: claw offsets `d` from the centre of mass (units of
+/// ℓ), unit normals, the wrench `b` the grips must supply (BW, BW·ℓ) and the parameters.
+pub(crate) struct Wrench {
+    pub k: usize,
+    pub d: [DVec3; MAX_GRIPS],
+    pub normal: [DVec3; MAX_GRIPS],
+    pub b: [f64; 6],
+    /// ρ = w_r / w_f.
+    pub rho: f64,
+    pub mu: f64,
+    /// Grip and push strength (BW).
+    pub grip: f64,
+    pub push: f64,
+    /// Body weight (N) and residual arm (m), to convert back.
+    pub weight: f64,
+    pub arm: f64,
+}
+
+/// [`LoadParams::validate`] as a test (every parameter finite and > 0), without forming
+/// an error.
+fn params_valid(p: &LoadParams) -> bool {
+    let ok = |v: f64| v > 0.0 && v < f64::INFINITY;
+    ok(p.mass_kg)
+        && ok(p.gravity)
+        && ok(p.mu)
+        && ok(p.grip_strength_bw)
+        && ok(p.push_strength_bw)
+        && ok(p.w_residual)
+        && ok(p.w_force)
+        && ok(p.residual_arm_m)
+}
+
+/// The residual `(r_F, r_τ)` of the unconstrained optimum: `(I + ρ A Aᵀ) r = b` by block
+/// elimination. Its force block is `(1 + ρk) I`, so `r_F = (b_F + ρ S × r_τ) / a`
+/// (`a = 1 + ρk`) and `r_τ` solves the 3×3 Schur complement
+/// `N = I + ρ Q_c + ρ/(k a) (|S|² I − S Sᵀ)`, right-hand side `b_τ − (ρ/a) S × b_F`, where
+/// `Q_c = Σ (|e_i|² I − e_i e_iᵀ)` is formed about the claws' centroid (`e_i = d_i − S/k`),
+/// so every term is positive semidefinite and nothing cancels. `None` if `N` is not
+/// positive definite (or not finite).
+fn wrench_solve(
+    d: &[DVec3],
+    sum: DVec3,
+    rho: f64,
+    b_f: DVec3,
+    b_t: DVec3,
+) -> Option<(DVec3, DVec3)> {
+    let k = d.len() as f64;
+    let a = 1.0 + rho * k;
+    let mean = sum / k;
+    let mut q = [0.0; 6]; // xx, yy, zz, xy, xz, yz of Q_c
+    for &di in d {
+        let e = di - mean;
+        let ee = e.length_squared();
+        q[0] += ee - e.x * e.x;
+        q[1] += ee - e.y * e.y;
+        q[2] += ee - e.z * e.z;
+        q[3] -= e.x * e.y;
+        q[4] -= e.x * e.z;
+        q[5] -= e.y * e.z;
+    }
+    let w = rho / (k * a);
+    let ss = sum.length_squared();
+    let n00 = 1.0 + rho * q[0] + w * (ss - sum.x * sum.x);
+    let n11 = 1.0 + rho * q[1] + w * (ss - sum.y * sum.y);
+    let n22 = 1.0 + rho * q[2] + w * (ss - sum.z * sum.z);
+    let n10 = rho * q[3] - w * sum.x * sum.y;
+    let n20 = rho * q[4] - w * sum.x * sum.z;
+    let n21 = rho * q[5] - w * sum.y * sum.z;
+    let c = b_t - (rho / a) * sum.cross(b_f);
+    // Cholesky N = L Lᵀ.
+    let positive = |v: f64| v > 0.0 && v < f64::INFINITY;
+    if !positive(n00) {
+        return None;
+    }
+    let l00 = n00.sqrt();
+    let l10 = n10 / l00;
+    let l20 = n20 / l00;
+    let d11 = n11 - l10 * l10;
+    if !positive(d11) {
+        return None;
+    }
+    let l11 = d11.sqrt();
+    let l21 = (n21 - l20 * l10) / l11;
+    let d22 = n22 - l20 * l20 - l21 * l21;
+    if !positive(d22) {
+        return None;
+    }
+    let l22 = d22.sqrt();
+    let y0 = c.x / l00;
+    let y1 = (c.y - l10 * y0) / l11;
+    let y2 = (c.z - l20 * y0 - l21 * y1) / l22;
+    let z2 = y2 / l22;
+    let z1 = (y1 - l21 * z2) / l11;
+    let z0 = (y0 - l10 * z1 - l20 * z2) / l00;
+    let r_t = DVec3::new(z0, z1, z2);
+    let r_f = (b_f + rho * sum.cross(r_t)) / a;
+    (r_f.is_finite() && r_t.is_finite()).then_some((r_f, r_t))
+}
+
+/// Solve `M y = b` for symmetric positive definite 6×6 `M` (its lower triangle is read
+/// and overwritten) by Cholesky; `None` if not positive definite.
+pub(crate) fn cholesky6(m: &mut [[f64; 6]; 6], b: [f64; 6]) -> Option<[f64; 6]> {
+    // Inverse diagonal of the factor: the column updates multiply.
+    let mut inv = [0.0; 6];
     for j in 0..6 {
         let mut dj = m[j][j];
         for k in 0..j {
             dj -= m[j][k] * m[j][k];
         }
-        if dj.is_nan() || dj <= 0.0 || dj.is_infinite() {
+        if !(dj > 0.0 && dj < f64::INFINITY) {
             return None;
         }
-        let dj = dj.sqrt();
-        m[j][j] = dj;
+        let lj = dj.sqrt();
+        m[j][j] = lj;
+        inv[j] = 1.0 / lj;
         for i in j + 1..6 {
             let mut s = m[i][j];
             for k in 0..j {
                 s -= m[i][k] * m[j][k];
             }
-            m[i][j] = s / dj;
+            m[i][j] = s * inv[j];
         }
     }
     let mut y = b;
@@ -131,13 +246,13 @@ fn cholesky6(m: &mut [[f64; 6]; 6], b: [f64; 6]) -> Option<[f64; 6]> {
         for k in 0..i {
             y[i] -= m[i][k] * y[k];
         }
-        y[i] /= m[i][i];
+        y[i] *= inv[i];
     }
     for i in (0..6).rev() {
         for k in i + 1..6 {
             y[i] -= m[k][i] * y[k];
         }
-        y[i] /= m[i][i];
+        y[i] *= inv[i];
     }
     Some(y)
 }
