@@ -14,7 +14,7 @@
 use glam::DVec3;
 
 use crate::LoadParams;
-use crate::model::{GripLoads, MAX_GRIPS, SolveMethod, Stance, slacks_scaled};
+use crate::model::{GripLoads, MAX_GRIPS, SolveMethod, Stance};
 
 /// The unconstrained optimum if it lies strictly inside every grip set; `None` otherwise,
 /// and for anything the general path must judge (invalid parameters or input, more than
@@ -42,14 +42,13 @@ pub(crate) fn closed_or_wrench(params: &LoadParams, stance: &Stance) -> Option<C
     if k == 0 || k > MAX_GRIPS || !params_valid(params) {
         return None;
     }
-    let finite = stance.com.is_finite()
-        && stance.com_acc.is_finite()
-        && stance.ang_mom_rate.is_finite()
-        && stance
-            .grips
-            .iter()
-            .all(|g| g.point.is_finite() && g.normal.is_finite());
-    if !finite {
+    // v − v is 0 for a finite v and NaN otherwise: one test for every input.
+    let mut nan = (stance.com - stance.com) + (stance.com_acc - stance.com_acc);
+    nan += stance.ang_mom_rate - stance.ang_mom_rate;
+    for g in stance.grips {
+        nan += (g.point - g.point) + (g.normal - g.normal);
+    }
+    if nan.is_nan() {
         return None;
     }
     let weight = params.body_weight_n();
@@ -83,15 +82,15 @@ pub(crate) fn closed_or_wrench(params: &LoadParams, stance: &Stance) -> Option<C
             continue;
         }
         let x = rho * (r_f + r_t.cross(d[i]));
-        let (u, p, c) = slacks_scaled(
-            params.mu,
-            params.grip_strength_bw,
-            params.push_strength_bw,
-            normal[i],
-            x,
-        );
-        // Strictly inside, as the general path demands (NaN fails too).
-        if !(u > 0.0 && p > 0.0 && c > 0.0) {
+        // Strictly inside, as the general path demands (NaN fails too): pull and push
+        // slacks > 0, and µ(s_n + 2G) > |x_t| compared squared (|x_t|² = |x|² − s_n²).
+        let sn = x.dot(normal[i]);
+        let cap = params.mu * (sn + 2.0 * params.grip_strength_bw);
+        let inside_i = sn > -params.grip_strength_bw
+            && sn < params.push_strength_bw
+            && cap > 0.0
+            && cap * cap > x.length_squared() - sn * sn;
+        if !inside_i {
             inside = false;
             continue;
         }
