@@ -42,11 +42,10 @@ pub(crate) fn closed_or_wrench(params: &LoadParams, stance: &Stance) -> Option<C
     if k == 0 || k > MAX_GRIPS || !params_valid(params) {
         return None;
     }
-    // v − v is 0 for a finite v and NaN otherwise: one test for every input.
-    let mut nan = (stance.com - stance.com) + (stance.com_acc - stance.com_acc);
-    nan += stance.ang_mom_rate - stance.ang_mom_rate;
+    // One test for every input: `nan_of` is 0 for a finite vector, NaN otherwise.
+    let mut nan = nan_of(stance.com) + nan_of(stance.com_acc) + nan_of(stance.ang_mom_rate);
     for g in stance.grips {
-        nan += (g.point - g.point) + (g.normal - g.normal);
+        nan += nan_of(g.point) + nan_of(g.normal);
     }
     if nan.is_nan() {
         return None;
@@ -109,7 +108,10 @@ pub(crate) fn closed_or_wrench(params: &LoadParams, stance: &Stance) -> Option<C
             weight,
             arm,
         };
-        return r.iter().all(|v| v.is_finite()).then(|| Closed::Outside(w, r));
+        return r
+            .iter()
+            .all(|v| v.is_finite())
+            .then_some(Closed::Outside(w, r));
     }
     let all_finite = out.forces.iter().all(|f| f.is_finite())
         && out.residual_force.is_finite()
@@ -133,6 +135,12 @@ pub(crate) struct Wrench {
     /// Body weight (N) and residual arm (m), to convert back.
     pub weight: f64,
     pub arm: f64,
+}
+
+/// `v − v`: zero where `v` is finite, NaN in each component that is not.
+#[allow(clippy::eq_op)]
+fn nan_of(v: glam::Vec3) -> glam::Vec3 {
+    v - v
 }
 
 /// [`LoadParams::validate`] as a test (every parameter finite and > 0), without forming

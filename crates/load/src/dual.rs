@@ -25,6 +25,10 @@
 //! i.e. the KKT conditions hold. Anything else returns `None` and the caller falls back to
 //! the active-set path.
 
+// Dense index arithmetic on 6×6 and 3×3 matrices and per-grip arrays reads best as index
+// loops.
+#![allow(clippy::needless_range_loop)]
+
 use glam::DVec3;
 
 use crate::active::{ActiveSet, CONE, PULL, PUSH};
@@ -145,7 +149,7 @@ fn project_on(y: DVec3, n: DVec3, bits: u8, mu: f64, grip: f64, push: f64) -> Op
     }
     let t = y - sn * n;
     let tau = t.length();
-    if !(tau > 0.0) {
+    if tau.is_nan() || tau <= 0.0 {
         return None;
     }
     let that = t / tau;
@@ -288,7 +292,10 @@ fn moved(a: &[Proj; MAX_GRIPS], b: &[Proj; MAX_GRIPS], k: usize) -> f64 {
 }
 
 /// The answer at a root: forces (BW), the residual `b − Σ A_i x_i` and the active limits.
-fn answer(w: &Wrench, proj: &[Proj; MAX_GRIPS]) -> Option<([DVec3; MAX_GRIPS], [f64; 6], ActiveSet)> {
+fn answer(
+    w: &Wrench,
+    proj: &[Proj; MAX_GRIPS],
+) -> Option<([DVec3; MAX_GRIPS], [f64; 6], ActiveSet)> {
     let mut x = [DVec3::ZERO; MAX_GRIPS];
     let mut res = w.b;
     let mut active = [0u8; MAX_GRIPS];
@@ -397,8 +404,7 @@ pub(crate) fn dual_newton(
             let (tf, tphi, tproj) = evaluate(w, &trial, None)?;
             // Sufficient decrease of φ; near the root, where φ's differences drown in
             // rounding, a halving of |F| does as well.
-            if tphi <= phi + ARMIJO * t * slope || (size <= NEAR && max_abs(&tf) <= 0.5 * size)
-            {
+            if tphi <= phi + ARMIJO * t * slope || (size <= NEAR && max_abs(&tf) <= 0.5 * size) {
                 last_move = if t == 1.0 {
                     moved(&proj, &tproj, w.k)
                 } else {

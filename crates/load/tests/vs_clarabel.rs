@@ -115,7 +115,8 @@ fn warm_solver_matches_clarabel_on_10k_random_stances() {
         let right = solve(p, &st)
             .unwrap_or_else(|e| panic!("case {case_no}: {e}\n{case:?}"))
             .active;
-        let wrong_hint: [u8; MAX_GRIPS] = std::array::from_fn(|i| ((case_no * 7 + i * 3) % 8) as u8);
+        let wrong_hint: [u8; MAX_GRIPS] =
+            std::array::from_fn(|i| ((case_no * 7 + i * 3) % 8) as u8);
         for (start, warm, hint) in [
             ("cold", &[][..], [0; MAX_GRIPS]),
             ("wrong", &wrong[..], wrong_hint),
