@@ -237,13 +237,11 @@ impl Sloth {
             ang_mom_rate: Vec3::ZERO,
             grips: &grips[..k],
         };
-        // The stage's own solve starts from its last answer; a release check (another
-        // set of grips) from the unconstrained optimum.
-        let solved = if except == 4 {
-            slothsim_load::solve_warm(&params, &stance, &hint, &warm[..k])?
-        } else {
-            slothsim_load::solve_from(&params, &stance, &hint)?
-        };
+        // The stage's own solve may start a cone's Newton steps from its last answer; a
+        // release check (another set of grips) has none to give. Both take the kernel's
+        // wrench-space Newton first (`slothsim_load::solve_warm`).
+        let warm = if except == 4 { &warm[..k] } else { &[] };
+        let solved = slothsim_load::solve_warm(&params, &stance, &hint, warm)?;
         let mut out = LimbLoads {
             residual_force: solved.residual_force,
             residual_torque: solved.residual_torque,
