@@ -194,72 +194,86 @@ fn wrench_solve(
     let n20 = rho * q[4] - w * sum.x * sum.z;
     let n21 = rho * q[5] - w * sum.y * sum.z;
     let c = b_t - (rho / a) * sum.cross(b_f);
-    // Cholesky N = L Lᵀ.
-    let positive = |v: f64| v > 0.0 && v < f64::INFINITY;
-    if !positive(n00) {
-        return None;
-    }
-    let l00 = n00.sqrt();
-    let l10 = n10 / l00;
-    let l20 = n20 / l00;
-    let d11 = n11 - l10 * l10;
-    if !positive(d11) {
-        return None;
-    }
-    let l11 = d11.sqrt();
-    let l21 = (n21 - l20 * l10) / l11;
-    let d22 = n22 - l20 * l20 - l21 * l21;
-    if !positive(d22) {
-        return None;
-    }
-    let l22 = d22.sqrt();
-    let y0 = c.x / l00;
-    let y1 = (c.y - l10 * y0) / l11;
-    let y2 = (c.z - l20 * y0 - l21 * y1) / l22;
-    let z2 = y2 / l22;
-    let z1 = (y1 - l21 * z2) / l11;
-    let z0 = (y0 - l10 * z1 - l20 * z2) / l00;
-    let r_t = DVec3::new(z0, z1, z2);
+    let l = chol3([n00, n10, n11, n20, n21, n22])?;
+    let z = backward3(&l, forward3(&l, c.to_array()));
+    let r_t = DVec3::from_array(z);
     let r_f = (b_f + rho * sum.cross(r_t)) / a;
     (r_f.is_finite() && r_t.is_finite()).then_some((r_f, r_t))
 }
 
-/// Solve `M y = b` for symmetric positive definite 6×6 `M` (its lower triangle is read
-/// and overwritten) by Cholesky; `None` if not positive definite.
-pub(crate) fn cholesky6(m: &mut [[f64; 6]; 6], b: [f64; 6]) -> Option<[f64; 6]> {
-    // Inverse diagonal of the factor: the column updates multiply.
-    let mut inv = [0.0; 6];
-    for j in 0..6 {
-        let mut dj = m[j][j];
-        for k in 0..j {
-            dj -= m[j][k] * m[j][k];
-        }
-        if !(dj > 0.0 && dj < f64::INFINITY) {
-            return None;
-        }
-        let lj = dj.sqrt();
-        m[j][j] = lj;
-        inv[j] = 1.0 / lj;
-        for i in j + 1..6 {
-            let mut s = m[i][j];
-            for k in 0..j {
-                s -= m[i][k] * m[j][k];
-            }
-            m[i][j] = s * inv[j];
-        }
+/// Lower Cholesky factor `[l00, l10, l11, l20, l21, l22]` of the symmetric 3×3 matrix with
+/// lower triangle `[a00, a10, a11, a20, a21, a22]`; `None` if not positive definite.
+fn chol3(a: [f64; 6]) -> Option<[f64; 6]> {
+    let positive = |v: f64| v > 0.0 && v < f64::INFINITY;
+    if !positive(a[0]) {
+        return None;
     }
-    let mut y = b;
-    for i in 0..6 {
-        for k in 0..i {
-            y[i] -= m[i][k] * y[k];
-        }
-        y[i] *= inv[i];
+    let l00 = a[0].sqrt();
+    let l10 = a[1] / l00;
+    let l20 = a[3] / l00;
+    let d11 = a[2] - l10 * l10;
+    if !positive(d11) {
+        return None;
     }
-    for i in (0..6).rev() {
-        for k in i + 1..6 {
-            y[i] -= m[k][i] * y[k];
-        }
-        y[i] *= inv[i];
+    let l11 = d11.sqrt();
+    let l21 = (a[4] - l20 * l10) / l11;
+    let d22 = a[5] - l20 * l20 - l21 * l21;
+    if !positive(d22) {
+        return None;
     }
-    Some(y)
+    Some([l00, l10, l11, l20, l21, d22.sqrt()])
+}
+
+/// `L⁻¹ b` for a [`chol3`] factor.
+fn forward3(l: &[f64; 6], b: [f64; 3]) -> [f64; 3] {
+    let y0 = b[0] / l[0];
+    let y1 = (b[1] - l[1] * y0) / l[2];
+    let y2 = (b[2] - l[3] * y0 - l[4] * y1) / l[5];
+    [y0, y1, y2]
+}
+
+/// `L⁻ᵀ y` for a [`chol3`] factor.
+fn backward3(l: &[f64; 6], y: [f64; 3]) -> [f64; 3] {
+    let x2 = y[2] / l[5];
+    let x1 = (y[1] - l[4] * x2) / l[2];
+    let x0 = (y[0] - l[1] * x1 - l[3] * x2) / l[0];
+    [x0, x1, x2]
+}
+
+/// Solve `M y = b` for symmetric positive definite 6×6 `M` (its lower triangle is read)
+/// by block Cholesky: `M = [[P, Bᵀ], [B, C]]`, `P = L_P L_Pᵀ`, `W = B L_P⁻ᵀ`, and the
+/// Schur complement `C − W Wᵀ = L_S L_Sᵀ` (3×3 factors throughout); `None` if not
+/// positive definite.
+pub(crate) fn cholesky6(m: &[[f64; 6]; 6], b: [f64; 6]) -> Option<[f64; 6]> {
+    let lp = chol3([m[0][0], m[1][0], m[1][1], m[2][0], m[2][1], m[2][2]])?;
+    let w: [[f64; 3]; 3] =
+        std::array::from_fn(|r| forward3(&lp, [m[3 + r][0], m[3 + r][1], m[3 + r][2]]));
+    let dot = |a: &[f64; 3], c: &[f64; 3]| a[0] * c[0] + a[1] * c[1] + a[2] * c[2];
+    let ls = chol3([
+        m[3][3] - dot(&w[0], &w[0]),
+        m[4][3] - dot(&w[1], &w[0]),
+        m[4][4] - dot(&w[1], &w[1]),
+        m[5][3] - dot(&w[2], &w[0]),
+        m[5][4] - dot(&w[2], &w[1]),
+        m[5][5] - dot(&w[2], &w[2]),
+    ])?;
+    let y1 = forward3(&lp, [b[0], b[1], b[2]]);
+    let y2 = forward3(
+        &ls,
+        [
+            b[3] - dot(&w[0], &y1),
+            b[4] - dot(&w[1], &y1),
+            b[5] - dot(&w[2], &y1),
+        ],
+    );
+    let x2 = backward3(&ls, y2);
+    let x1 = backward3(
+        &lp,
+        [
+            y1[0] - (w[0][0] * x2[0] + w[1][0] * x2[1] + w[2][0] * x2[2]),
+            y1[1] - (w[0][1] * x2[0] + w[1][1] * x2[1] + w[2][1] * x2[2]),
+            y1[2] - (w[0][2] * x2[0] + w[1][2] * x2[1] + w[2][2] * x2[2]),
+        ],
+    );
+    Some([x1[0], x1[1], x1[2], x2[0], x2[1], x2[2]])
 }

@@ -199,7 +199,8 @@ fn jacobian(p: &Proj, n: DVec3, mu: f64) -> M3 {
 }
 
 /// `F(r)`, `φ(r)` and the projections at `r`: onto the grip sets, or with `fixed` onto
-/// the surfaces those limits describe ([`project_on`]; `None` where that is not smooth).
+/// the surfaces those limits describe ([`project_on`]; `None` where that is not smooth;
+/// `φ` is then not needed and only its quadratic part is formed).
 #[inline(never)]
 fn evaluate(
     w: &Wrench,
@@ -233,19 +234,40 @@ fn evaluate(
         f[3] += m.x;
         f[4] += m.y;
         f[5] += m.z;
-        phi += 0.5 * (y.length_squared() - (y - p.x).length_squared()) / w.rho;
+        if fixed.is_none() {
+            phi += 0.5 * (y.length_squared() - (y - p.x).length_squared()) / w.rho;
+        }
         proj[i] = p;
     }
     Some((f, phi, proj))
 }
 
-/// `∂F = I + ρ Σ A_i J_i A_iᵀ` with `A_i = [I; [d_i]×]`.
+/// `∂F = I + ρ Σ A_i J_i A_iᵀ` with `A_i = [I; [d_i]×]`: its lower triangle (what
+/// [`cholesky6`] reads; the upper entries are left 0).
 #[inline(never)]
 fn newton_matrix(w: &Wrench, proj: &[Proj; MAX_GRIPS]) -> [[f64; 6]; 6] {
     let mut h = [[0.0; 6]; 6];
     for i in 0..w.k {
-        let j = jacobian(&proj[i], w.normal[i], w.mu);
         let d = w.d[i];
+        if proj[i].bits == 0 {
+            // J = I: the blocks are I, K and K Kᵀ = |d|² I − d dᵀ.
+            let (da, dd) = (d.to_array(), d.length_squared());
+            for r in 0..3 {
+                h[r][r] += 1.0;
+                for c in 0..=r {
+                    let eye = if r == c { dd } else { 0.0 };
+                    h[3 + r][3 + c] += eye - da[r] * da[c];
+                }
+            }
+            h[3][1] -= da[2];
+            h[3][2] += da[1];
+            h[4][0] += da[2];
+            h[4][2] -= da[0];
+            h[5][0] -= da[1];
+            h[5][1] += da[0];
+            continue;
+        }
+        let j = jacobian(&proj[i], w.normal[i], w.mu);
         // K J (K v = d × v): column c is d × (column c of J).
         let mut kj = [[0.0; 3]; 3];
         for c in 0..3 {
@@ -264,16 +286,17 @@ fn newton_matrix(w: &Wrench, proj: &[Proj; MAX_GRIPS]) -> [[f64; 6]; 6] {
         }
         for r in 0..3 {
             for c in 0..3 {
-                h[r][c] += j[r][c];
                 h[3 + r][c] += kj[r][c];
-                h[r][3 + c] += kj[c][r];
+            }
+            for c in 0..=r {
+                h[r][c] += j[r][c];
                 h[3 + r][3 + c] += kjk[r][c];
             }
         }
     }
-    for (r, row) in h.iter_mut().enumerate() {
-        for (c, v) in row.iter_mut().enumerate() {
-            *v = w.rho * *v + if r == c { 1.0 } else { 0.0 };
+    for r in 0..6 {
+        for c in 0..=r {
+            h[r][c] = w.rho * h[r][c] + if r == c { 1.0 } else { 0.0 };
         }
     }
     h
@@ -347,8 +370,8 @@ pub(crate) fn fixed_newton(
             return None;
         }
         steps += 1;
-        let mut h = newton_matrix(w, &proj);
-        let dr = cholesky6(&mut h, f.map(|v| -v))?;
+        let h = newton_matrix(w, &proj);
+        let dr = cholesky6(&h, f.map(|v| -v))?;
         for c in 0..6 {
             r[c] += dr[c];
         }
@@ -394,8 +417,8 @@ pub(crate) fn dual_newton(
             return None;
         }
         steps += 1;
-        let mut h = newton_matrix(w, &proj);
-        let dr = cholesky6(&mut h, f.map(|v| -v))?;
+        let h = newton_matrix(w, &proj);
+        let dr = cholesky6(&h, f.map(|v| -v))?;
         let slope: f64 = (0..6).map(|c| f[c] * dr[c]).sum();
         let mut t = 1.0;
         let mut halvings = 0;
