@@ -5,7 +5,7 @@
 
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
-use slothsim_load::{Grip as LoadGrip, LoadError, LoadParams, MassPoint, Stance};
+use slothsim_load::{Grip as LoadGrip, LoadError, LoadParams, Stance};
 
 use crate::LocoView;
 use crate::LocomotionConfig;
@@ -174,24 +174,24 @@ impl Sloth {
         })
     }
 
-    /// The centre of mass with limb `li`'s joints 1..3 and effector (world) from `joints`.
+    /// The centre of mass with limb `li`'s joints 1..3 and effector (world) from `joints`:
+    /// `slothsim_load::centre_of_mass` of the torso and the 12 segment midpoints, summed in
+    /// the same order (bit for bit the same) without forming the points.
     fn centre_of_mass_of(&self, w: &LocoView<'_>, joints: impl Fn(usize) -> [Vec3; 4]) -> Vec3 {
         let rig = w.rig;
         let torso = self.body_pos + self.body_rot * (0.5 * (rig.torso_ms[0] + rig.torso_ms[1]));
-        let mut points = [MassPoint {
-            point: torso,
-            mass: 1.0 - 4.0 * LIMB_MASS_SHARE,
-        }; 13];
+        let torso_mass = 1.0 - 4.0 * LIMB_MASS_SHARE;
+        let mut total = torso_mass;
+        let mut sum = Vec3::ZERO + torso * torso_mass;
         for li in 0..4 {
             let j = joints(li);
             for (s, share) in SEGMENT_SHARE.iter().enumerate() {
-                points[1 + 3 * li + s] = MassPoint {
-                    point: 0.5 * (j[s] + j[1 + s]),
-                    mass: LIMB_MASS_SHARE * share,
-                };
+                let mass = LIMB_MASS_SHARE * share;
+                total += mass;
+                sum += (0.5 * (j[s] + j[1 + s])) * mass;
             }
         }
-        slothsim_load::centre_of_mass(&points).unwrap_or(torso)
+        sum / total
     }
 
     /// Loads with the holding limbs except `except` (a limb index, or 4 for none),
@@ -237,13 +237,11 @@ impl Sloth {
             ang_mom_rate: Vec3::ZERO,
             grips: &grips[..k],
         };
-        // The stage's own solve starts from its last answer; a release check (another
-        // set of grips) from the unconstrained optimum.
-        let solved = if except == 4 {
-            slothsim_load::solve_warm(&params, &stance, &hint, &warm[..k])?
-        } else {
-            slothsim_load::solve_from(&params, &stance, &hint)?
-        };
+        // The stage's own solve may start a cone's Newton steps from its last answer; a
+        // release check (another set of grips) has none to give. Both take the kernel's
+        // wrench-space Newton first (`slothsim_load::solve_warm`).
+        let warm = if except == 4 { &warm[..k] } else { &[] };
+        let solved = slothsim_load::solve_warm(&params, &stance, &hint, warm)?;
         let mut out = LimbLoads {
             residual_force: solved.residual_force,
             residual_torque: solved.residual_torque,

@@ -8,7 +8,8 @@
 #![allow(clippy::needless_range_loop)]
 
 use crate::active::{ActiveSet, CONE, PULL, PUSH, cone_active_set, start_set};
-use crate::closed::closed_form;
+use crate::closed::{Closed, Wrench, closed_form, closed_or_wrench};
+use crate::dual::{dual_newton, fixed_newton};
 use crate::model::{MAX_GRIPS, Problem, slacks_scaled};
 use glam::{DVec3, Vec3};
 
@@ -61,21 +62,37 @@ pub fn solve_from(
     Ok(out)
 }
 
-/// [`solve_from`] with the Newton steps of a binding friction cone started from `warm`
-/// (per grip, in the order of [`Stance::grips`], its force in newtons: usually the last
-/// frame's answer of the same grips) instead of the unconstrained optimum. The start is
-/// only where Newton's method begins: the answer is accepted by the same KKT conditions
-/// of the whole problem, so it is the same optimum as a cold solve's (within the
-/// convergence tolerance, ≪ 1e-9 BW; `tests/warm_start.rs`), found in fewer steps when
-/// the stance changed little. A `warm` that is not finite or of another length is ignored.
+/// The GripLoad stage's solve. The closed form as in [`solve_from`]; where its optimum
+/// leaves a grip set, Newton's method in wrench space (`dual.rs`: six unknowns, one 6×6
+/// Cholesky a step), from the closed form's residual: first with the limits of `hint`
+/// held (per grip, in the order of [`Stance::grips`]: usually the last frame's
+/// [`GripLoads::active`]), accepted only where the grips' points project onto exactly
+/// those limits; else with the regions free to change (`SolveMethod::DualNewton` either
+/// way). Where neither converges, [`solve_from`]'s path with the Newton steps of a binding
+/// friction cone started from `warm` (per grip, its force in newtons: usually the last
+/// frame's answer of the same grips) instead of the unconstrained optimum. Every path
+/// ends at the same optimum as a cold solve's (within the convergence tolerance,
+/// ≪ 1e-9 BW; `tests/warm_start.rs`, and against clarabel in `tests/vs_clarabel.rs`). A
+/// `warm` that is not finite or of another length is ignored.
 pub fn solve_warm(
     params: &LoadParams,
     stance: &Stance,
     hint: &ActiveSet,
     warm: &[Vec3],
 ) -> Result<GripLoads, LoadError> {
-    if let Some(out) = closed_form(params, stance) {
-        return Ok(out);
+    match closed_or_wrench(params, stance) {
+        Some(Closed::Inside(out)) => return Ok(out),
+        Some(Closed::Outside(w, r0)) => {
+            let hinted = hint[..w.k].iter().any(|&b| b != 0);
+            let found = hinted
+                .then(|| fixed_newton(&w, &r0, hint))
+                .flatten()
+                .or_else(|| dual_newton(&w, &r0));
+            if let Some(out) = found.and_then(|found| dual_loads(&w, found)) {
+                return Ok(out);
+            }
+        }
+        None => {}
     }
     let p = Problem::new(params, stance)?;
     let weight = params.body_weight_n();
@@ -92,6 +109,30 @@ pub fn solve_warm(
     out.method = method;
     out.active = active;
     Ok(out)
+}
+
+/// Forces (BW), residual, Newton steps and active limits of [`crate::dual`].
+type DualAnswer = ([DVec3; MAX_GRIPS], [f64; 6], u32, ActiveSet);
+
+/// A wrench-space Newton answer in newtons; `None` if anything is not finite.
+fn dual_loads(w: &Wrench, found: DualAnswer) -> Option<GripLoads> {
+    let (x, r, steps, active) = found;
+    let mut out = GripLoads {
+        count: w.k as u8,
+        residual_force: (DVec3::new(r[0], r[1], r[2]) * w.weight).as_vec3(),
+        residual_torque: (DVec3::new(r[3], r[4], r[5]) * (w.weight * w.arm)).as_vec3(),
+        iterations: steps,
+        method: SolveMethod::DualNewton,
+        active,
+        ..GripLoads::default()
+    };
+    for i in 0..w.k {
+        out.forces[i] = (x[i] * w.weight).as_vec3();
+    }
+    let all_finite = out.forces.iter().all(|f| f.is_finite())
+        && out.residual_force.is_finite()
+        && out.residual_torque.is_finite();
+    all_finite.then_some(out)
 }
 
 /// Hessian 2(w_r AᵀA + w_f I) and linear term 2 w_r Aᵀb of the objective.

@@ -16,6 +16,7 @@
 mod active;
 mod barrier;
 mod closed;
+mod dual;
 mod error;
 mod model;
 mod params;

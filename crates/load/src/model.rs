@@ -99,6 +99,9 @@ pub enum SolveMethod {
     Barrier,
     /// clarabel ([`crate::solve_reference`]).
     Reference,
+    /// Newton's method in wrench space (`crate::solve_warm`, when the closed form's
+    /// optimum leaves a grip set).
+    DualNewton,
 }
 
 impl GripLoads {
