@@ -143,7 +143,8 @@ pub struct LocomotionConfig {
     pub weight_shift_max_m: f32,
     /// Crowds (`run`, `bench`) solve each sloth's grip loads every this many frames,
     /// sloths staggered by id (1 = every frame; a lone scenario sloth always every
-    /// frame). Default 4: every frame costs +35 % of the crowd tick (docs/grip-loads.md).
+    /// frame). Default 1: every sloth every frame (+14 % of the crowd tick against every
+    /// 4th frame; docs/grip-loads.md).
     pub crowd_load_every: u8,
 }
 
@@ -209,7 +210,7 @@ impl LocomotionConfig {
             load_w_force: 1.0,
             release_residual_bw: 0.05,
             weight_shift_max_m: 0.04,
-            crowd_load_every: 4,
+            crowd_load_every: 1,
         };
         match profile {
             Profile::Free => free,

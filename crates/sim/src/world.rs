@@ -34,11 +34,11 @@ pub struct BodyAverageMemo(pub BodyMemo);
 #[derive(Resource, Clone, Copy, Debug)]
 pub struct GripLoadEvery(pub u32);
 
-/// Crowds solve each sloth's grip loads every 4th frame by default (15 Hz at 60 Hz; the
-/// gait's loads change over a stride, ~1 s): the stage then costs a quarter. Release
-/// decisions solve when they are asked, with the body as it is then. The config key
-/// `crowd_load_every` sets the rate (this is its default).
-pub const CROWD_LOAD_EVERY: u32 = 4;
+/// Crowds solve each sloth's grip loads every frame by default. The config key
+/// `crowd_load_every` sets a lower rate (every Nth frame, sloths staggered by id; the
+/// loads change over a stride, ~1 s); release decisions always solve when they are
+/// asked, with the body as it is then. This is the key's default.
+pub const CROWD_LOAD_EVERY: u32 = 1;
 
 /// A sloth's grip loads this frame (written by the GripLoad stage): the force on each
 /// holding limb and the residual wrench (see `slothsim-load`).

@@ -1,6 +1,7 @@
 //! How often the GripLoad stage solves: a crowd solves each sloth every
-//! `CROWD_LOAD_EVERY`-th frame, sloths staggered by id so every frame solves the same
-//! share of them; a lone (scenario) sloth is solved every frame.
+//! `crowd_load_every`-th frame (default `CROWD_LOAD_EVERY` = 1: every frame), sloths
+//! staggered by id so every frame solves the same share of them; a lone (scenario)
+//! sloth is solved every frame.
 
 use slothsim_gait::LocomotionConfig;
 use slothsim_rig::Rig;
@@ -9,6 +10,11 @@ use slothsim_sim::{CROWD_LOAD_EVERY, Crowd, CrowdSpec, ForestSource, GripLoad, L
 
 /// 40 sloths with default locomotion on a small six-tree forest.
 fn small_crowd(seed: u64) -> Crowd {
+    small_crowd_with(seed, LocomotionConfig::default())
+}
+
+/// 40 sloths with locomotion `cfg` on a small six-tree forest.
+fn small_crowd_with(seed: u64, cfg: LocomotionConfig) -> Crowd {
     let forest = ForestConfig {
         trees: 6,
         area_m: 25.0,
@@ -18,22 +24,21 @@ fn small_crowd(seed: u64) -> Crowd {
         sloths: 40,
         seed,
         dt: 1.0 / 60.0,
-        cfg: LocomotionConfig::default(),
+        cfg,
         clearance_m: 0.3,
     };
     let scene = generate_forest(&forest).unwrap();
     Crowd::new(spec, &Rig::sloth(), scene, ForestSource::Procedural(forest)).unwrap()
 }
 
-#[test]
-fn a_crowd_solves_each_sloth_every_fourth_frame_staggered_by_id() {
-    let mut crowd = small_crowd(7);
-    let every = CROWD_LOAD_EVERY as usize;
-    assert_eq!(every, 4);
+/// The solved sloths of each of `frames` ticks (after 10 untimed ones): every
+/// frame `40 / every` of them, one id class mod `every`, each sloth `frames / every`
+/// times; then every sloth holds finite loads carried by ≥ 2 grips.
+fn assert_solves_every(mut crowd: Crowd, every: usize) {
     for _ in 0..10 {
         crowd.tick();
     }
-    let frames = 4 * every;
+    let frames = 4 * every.max(2);
     let mut solved = vec![0usize; 40];
     for _ in 0..frames {
         crowd.tick();
@@ -67,6 +72,22 @@ fn a_crowd_solves_each_sloth_every_fourth_frame_staggered_by_id() {
             "{g:?}"
         );
     }
+}
+
+#[test]
+fn a_default_crowd_solves_every_sloth_every_frame() {
+    assert_eq!(CROWD_LOAD_EVERY, 1);
+    assert_eq!(LocomotionConfig::default().crowd_load_every, 1);
+    assert_solves_every(small_crowd(7), 1);
+}
+
+#[test]
+fn a_crowd_at_every_fourth_frame_solves_each_sloth_staggered_by_id() {
+    let cfg = LocomotionConfig {
+        crowd_load_every: 4,
+        ..LocomotionConfig::default()
+    };
+    assert_solves_every(small_crowd_with(7, cfg), 4);
 }
 
 /// The GripLoad stage's centre of mass comes from the joints CcdSolve wrote
