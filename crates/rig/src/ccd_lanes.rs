@@ -615,7 +615,8 @@ fn clamp_ball(q: Q, axis: V, swing: (F, F), twist: &Ranges) -> (Q, M, M) {
     let len = sqrt(twist_len_sq);
     let inv_len = recip(len);
     let (tw, tp) = (q.w * inv_len, p * inv_len);
-    let swing_over = len.cmplt(cos_half_swing);
+    // Scale-free (see the scalar `clamp_ball`): `len / |q|` against the cosine.
+    let swing_over = twist_len_sq.cmplt(cos_half_swing * cos_half_swing * q.length_squared());
     let (tw_c, tp_c, twist_over) = clamp_hinge_half(tw, tp, twist);
     let clamped = swing_over | twist_over;
     if !clamped.any() {

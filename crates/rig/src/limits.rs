@@ -464,7 +464,10 @@ pub(crate) fn clamp_ball(
     // twist = (axis * p, w) / len (w ≥ 0, so its half-angle lies in [-π/2, π/2] and its
     // sine p/len grows with the twist angle); swing = q * conj(twist) has scalar part len.
     let (tw, tp) = (q.w * inv_len, p * inv_len);
-    let swing_over = len < cos_half_swing;
+    // The swing's half-angle cosine is `len / |q|`: warm-start poses drift off
+    // unit norm (products are never renormalised), and comparing `len` alone
+    // let a grown `q` creep past the swing limit unclamped.
+    let swing_over = twist_len_sq < cos_half_swing * cos_half_swing * q.length_squared();
     let (tw_c, tp_c, twist_over) = clamp_hinge_half(tw, tp, twist);
     if !swing_over && !twist_over {
         return (q, false);
@@ -507,6 +510,24 @@ mod tests {
         assert!((swing - 0.5).abs() < 1e-4 && (twist - 0.25).abs() < 1e-4);
         let inside = Quat::from_rotation_x(0.2);
         assert_eq!(lim.clamp(inside), inside);
+    }
+
+    /// A warm-start pose drifted off unit norm (never renormalised) is judged
+    /// by its angles: a grown `q` just past the swing limit is still clamped
+    /// (the check used to compare the unnormalised twist length).
+    #[test]
+    fn ball_clamps_swing_of_off_unit_quaternion() {
+        let lim = JointLimit::ball_amplitude(Vec3A::Y, 1.0);
+        let JointLimit::Ball { swing_max, .. } = lim else {
+            unreachable!()
+        };
+        for grow in [1.0f32 + 1e-5, 1.0 + 1e-4, 1.0 + 1e-3] {
+            let unit = Quat::from_rotation_x(swing_max + 5e-4);
+            let q = unit * grow;
+            assert!(lim.violation(q) > 4e-4);
+            let c = lim.clamp(q);
+            assert!(lim.violation(c) < 1e-5, "grow {grow}: {}", lim.violation(c));
+        }
     }
 
     proptest::proptest! {

@@ -137,14 +137,25 @@ impl Sloth {
         checks: &mut u32,
     ) -> Option<(TraceRequest, Candidate)> {
         let p = self.place(env, at);
-        if !self.step_in_range(env, at, &p)
-            || !self.keeps_leg_order(env, &p)
-            || !self.keeps_head_up(env, &p)
-            || self.crowded(env, &p)
-        {
+        if !self.step_in_range(env, at, &p) {
             return None;
         }
-        let (back_scale, lift) = self.reach_at(env, at, &p, checks)?;
+        // Leg order with the fore grips held now; else, for a hind step, with
+        // the fore limb that lifts off during its swing in the air (the step
+        // then holds only with that limb's committed step, landing ahead).
+        let passed_fore = if self.keeps_leg_order(env, &p, None) {
+            None
+        } else {
+            let lj = self.lifting_fore(env, at, &p)?;
+            if !self.keeps_leg_order(env, &p, Some(lj)) {
+                return None;
+            }
+            Some(lj)
+        };
+        if !self.keeps_head_up(env, &p) || self.crowded(env, &p) {
+            return None;
+        }
+        let (back_scale, lift) = self.reach_at(env, at, &p, passed_fore, checks)?;
         Some(p.trace(at, back_scale, lift))
     }
 
@@ -291,19 +302,66 @@ impl Sloth {
             || lead(p.grip) >= env.cfg.min_step_m
     }
 
+    /// The fore limb that lifts off during hind limb `at.limb`'s plain step
+    /// ([`Sloth::next_lift`]), if the step may commit its step: when the hind
+    /// limb lands, that limb is in the air toward a grip ahead, so the leg
+    /// order need not hold against the grip it leaves ([`Self::keeps_leg_order`]).
+    fn lifting_fore(&self, env: &LocoView<'_>, at: &CandidateAt, p: &Placement) -> Option<usize> {
+        if p.limb.is_fore() || !at.may_commit_lift || !self.is_plain(at, p) {
+            return None;
+        }
+        self.next_lift(env, at.limb)
+            .map(|(lj, _)| lj)
+            .filter(|&lj| Limb::ALL[lj].is_fore())
+    }
+
+    /// A plain step: one limb, forward, along the support it holds (no
+    /// transfer, side step or retreat).
+    fn is_plain(&self, at: &CandidateAt, p: &Placement) -> bool {
+        p.pair.is_none()
+            && !p.transfer_step
+            && !at.retreat
+            && p.side_step.is_none()
+            && at.support == self.limbs[at.limb].grip.support
+    }
+
+    /// Whether hind limb `li` landing at `point` is level with or ahead of
+    /// fore limb `lj`'s grip along the body (leg order then holds only with
+    /// `lj` in the air toward its committed step: see [`Self::lifting_fore`]).
+    pub(super) fn passes_fore(
+        &self,
+        env: &LocoView<'_>,
+        li: usize,
+        lj: usize,
+        point: Vec3,
+    ) -> bool {
+        let fwd = self.body_rot * Vec3::Z;
+        !Limb::ALL[li].is_fore()
+            && Limb::ALL[lj].is_fore()
+            && point.dot(fwd) > self.limbs[lj].grip.point.dot(fwd) - env.cfg.leg_order_margin_m
+    }
+
     /// Stage 3: leg order (thesis `CheckLegsOrder`), measured along the
     /// body: hind grips never ahead of a fore grip, trailing fore limbs never
     /// level with the hind ones, a side's fore and hind grips apart, onto a
     /// trunk the fore limbs no further ahead than the hind limbs can follow,
     /// and a limb landing level with or ahead of its girdle partner, never
-    /// more than [`crate::LocomotionConfig::max_girdle_lead`] ahead.
-    fn keeps_leg_order(&self, env: &LocoView<'_>, p: &Placement) -> bool {
+    /// more than [`crate::LocomotionConfig::max_girdle_lead`] ahead. A hind
+    /// step is judged without the grip of fore limb `lifting`, if given (it
+    /// is in the air when the step lands: [`Self::lifting_fore`]).
+    fn keeps_leg_order(&self, env: &LocoView<'_>, p: &Placement, lifting: Option<usize>) -> bool {
         let cfg = env.cfg;
         let (limb, approx) = (p.limb, p.grip);
         // Leg order: hind never ahead of a fore limb; never behind the opposite limb of the girdle.
         let proj = |v: Vec3| v.dot(p.body_fwd);
-        let fore_min = proj(self.limbs[Limb::LF.index()].grip.point)
-            .min(proj(self.limbs[Limb::RF.index()].grip.point));
+        let fore_at = |f: Limb| {
+            if lifting == Some(f.index()) {
+                f32::INFINITY
+            } else {
+                proj(self.limbs[f.index()].grip.point)
+            }
+        };
+        let fore_min = fore_at(Limb::LF).min(fore_at(Limb::RF));
         let hind_max = proj(self.limbs[Limb::LH.index()].grip.point)
             .max(proj(self.limbs[Limb::RH.index()].grip.point));
         if !limb.is_fore() && proj(approx) > fore_min - cfg.leg_order_margin_m {
@@ -414,38 +472,37 @@ impl Sloth {
     /// Stage 6: the reach checks ([`Sloth::step_reachable`]; the hind pair's
     /// with the largest offset back that holds), counted in `checks`. A plain
     /// step that holds only with the limb lifting off next in the air
-    /// commits that limb's step where `at` allows it. The hind pair's share
-    /// of the offset back and the committed step, if the step passes.
+    /// commits that limb's step where `at` allows it; a hind step past the
+    /// grip of fore limb `passed_fore` only with that limb's committed step,
+    /// landing ahead of it. The hind pair's share of the offset back and the
+    /// committed step, if the step passes.
     fn reach_at(
         &self,
         env: &LocoView<'_>,
         at: &CandidateAt,
         p: &Placement,
+        passed_fore: Option<usize>,
         checks: &mut u32,
     ) -> Option<(f32, Option<(u8, Grip)>)> {
         let (li, sid) = (at.limb, at.support);
         *checks += 1;
         let mut back_scale = 0.0;
-        let reachable = match p.pair {
-            Some((pi, p2, out2)) => {
-                match self.pair_back_scale(env, &[(li, p.grip, p.out), (pi, p2, out2)], sid) {
-                    Some(k) => {
-                        back_scale = k;
-                        true
+        let reachable = passed_fore.is_none()
+            && match p.pair {
+                Some((pi, p2, out2)) => {
+                    match self.pair_back_scale(env, &[(li, p.grip, p.out), (pi, p2, out2)], sid) {
+                        Some(k) => {
+                            back_scale = k;
+                            true
+                        }
+                        None => false,
                     }
-                    None => false,
                 }
-            }
-            None => self.step_reachable(env, li, p.grip, p.out, sid),
-        };
+                None => self.step_reachable(env, li, p.grip, p.out, sid),
+            };
         // Held only with the next limb to lift off in the air by the
         // landing: a plain step commits that limb's step.
-        let plain = p.pair.is_none()
-            && !p.transfer_step
-            && !at.retreat
-            && p.side_step.is_none()
-            && sid == self.limbs[li].grip.support;
-        let lift = if !reachable && at.may_commit_lift && plain {
+        let lift = if !reachable && at.may_commit_lift && self.is_plain(at, p) {
             let grip = Grip {
                 point: p.grip,
                 normal: p.out,
@@ -457,6 +514,13 @@ impl Sloth {
         } else {
             None
         };
+        // Past a fore grip: that fore limb's committed step lands ahead.
+        let proj = |v: Vec3| v.dot(p.body_fwd);
+        let lift = lift.filter(|(lj, to)| {
+            passed_fore.is_none_or(|pf| {
+                pf == *lj as usize && proj(to.point) >= proj(p.grip) + env.cfg.leg_order_margin_m
+            })
+        });
         if !reachable && lift.is_none() {
             return None;
         }

@@ -109,7 +109,13 @@ impl Sloth {
                         }
                     }
                     None => {
-                        if self.step_reachable(env, li, hit.point, hit.normal, m.support) {
+                        // Landing past the lifting fore limb's grip, the
+                        // step holds only with that limb's committed step.
+                        let needs_lift =
+                            lift.is_some_and(|(lj, _)| self.passes_fore(env, li, lj, hit.point));
+                        if !needs_lift
+                            && self.step_reachable(env, li, hit.point, hit.normal, m.support)
+                        {
                             lift = None;
                             true
                         } else {
@@ -407,7 +413,7 @@ impl Sloth {
     /// that limb planted and no step of its own committed, and every other
     /// limb planted or landing before it lifts off, none due: no other limb
     /// can lift off first.
-    fn next_lift(&self, env: &LocoView<'_>, li: usize) -> Option<(usize, f32)> {
+    pub(super) fn next_lift(&self, env: &LocoView<'_>, li: usize) -> Option<(usize, f32)> {
         if self.transfer.is_some() {
             return None;
         }
