@@ -8,7 +8,8 @@ use common::{Case, random_case};
 use rand::SeedableRng;
 use rand_pcg::Pcg64;
 use slothsim_load::{
-    MAX_GRIPS, SolveMethod, Stance, grip_states, solve, solve_from, solve_reference, solve_warm,
+    GripLoads, MAX_GRIPS, SolveMethod, Stance, grip_states, solve, solve_from, solve_reference,
+    solve_warm,
 };
 
 const CASES: usize = 10_000;
@@ -28,6 +29,31 @@ fn stance(c: &Case) -> Stance<'_> {
     }
 }
 
+/// Asserts that `ours` is clarabel's optimum `reference` for `case` (`what`: the case
+/// and start, for the message): every grip force and the residual within
+/// [`FORCE_TOL_BW`], the same active limits. Returns the largest force difference (BW).
+fn assert_same_optimum(what: &str, case: &Case, ours: &GripLoads, reference: &GripLoads) -> f32 {
+    let (p, st) = (&case.params, stance(case));
+    let w = p.body_weight_n() as f32;
+    let mut worst = 0f32;
+    for (a, b) in ours.grip_forces().iter().zip(reference.grip_forces()) {
+        let d = (*a - *b).length() / w;
+        worst = worst.max(d);
+        assert!(
+            d <= FORCE_TOL_BW,
+            "{what}: force {a} vs clarabel {b} ({d} BW)\n{case:?}"
+        );
+    }
+    let dr = (ours.residual_bw(p) - reference.residual_bw(p)).abs();
+    assert!(dr <= FORCE_TOL_BW, "{what}: residual differs by {dr} BW");
+    assert_eq!(
+        grip_states(p, &st, ours, ACTIVE_TOL_BW),
+        grip_states(p, &st, reference, ACTIVE_TOL_BW),
+        "{what}: active sets differ\n{case:?}\n{ours:?}\n{reference:?}"
+    );
+    worst
+}
+
 #[test]
 fn specialised_solver_matches_clarabel_on_10k_random_stances() {
     let mut rng = Pcg64::seed_from_u64(22);
@@ -38,45 +64,22 @@ fn specialised_solver_matches_clarabel_on_10k_random_stances() {
         let case = random_case(&mut rng);
         let st = stance(&case);
         let p = &case.params;
-        let w = p.body_weight_n() as f32;
         let ours = solve(p, &st).unwrap_or_else(|e| panic!("case {case_no}: {e}\n{case:?}"));
         let reference =
             solve_reference(p, &st).unwrap_or_else(|e| panic!("case {case_no}: {e}\n{case:?}"));
         methods[ours.method as usize] += 1;
-        for (a, b) in ours.grip_forces().iter().zip(reference.grip_forces()) {
-            let d = (*a - *b).length() / w;
-            worst = worst.max(d);
-            assert!(
-                d <= FORCE_TOL_BW,
-                "case {case_no}: force {a} vs clarabel {b} ({d} BW)\n{case:?}"
-            );
-        }
+        let what = format!("case {case_no}");
+        worst = worst.max(assert_same_optimum(&what, &case, &ours, &reference));
         // Started from any active set (its own: a right hint; a random one: a wrong
         // hint, as after a frame's change of stance), the solve ends at the same optimum.
         let wrong: [u8; MAX_GRIPS] = std::array::from_fn(|i| ((case_no * 7 + i * 3) % 8) as u8);
         for hint in [ours.active, wrong] {
             let again = solve_from(p, &st, &hint)
                 .unwrap_or_else(|e| panic!("case {case_no} from {hint:?}: {e}\n{case:?}"));
-            for (a, b) in again.grip_forces().iter().zip(reference.grip_forces()) {
-                let d = (*a - *b).length() / w;
-                worst = worst.max(d);
-                assert!(
-                    d <= FORCE_TOL_BW,
-                    "case {case_no} from {hint:?}: force {a} vs clarabel {b} ({d} BW)"
-                );
-            }
+            let what = format!("case {case_no} from {hint:?}");
+            worst = worst.max(assert_same_optimum(&what, &case, &again, &reference));
         }
-        let dr = (ours.residual_bw(p) - reference.residual_bw(p)).abs();
-        assert!(
-            dr <= FORCE_TOL_BW,
-            "case {case_no}: residual differs by {dr} BW"
-        );
         let sa = grip_states(p, &st, &ours, ACTIVE_TOL_BW);
-        let sb = grip_states(p, &st, &reference, ACTIVE_TOL_BW);
-        assert_eq!(
-            sa, sb,
-            "case {case_no}: active sets differ\n{case:?}\n{ours:?}\n{reference:?}"
-        );
         for s in sa {
             counts[s as usize] += 1;
         }
@@ -128,24 +131,8 @@ fn warm_solver_matches_clarabel_on_10k_random_stances() {
             if ours.method == SolveMethod::DualNewton {
                 steps += ours.iterations;
             }
-            for (a, b) in ours.grip_forces().iter().zip(reference.grip_forces()) {
-                let d = (*a - *b).length() / w;
-                worst = worst.max(d);
-                assert!(
-                    d <= FORCE_TOL_BW,
-                    "case {case_no} {start}: force {a} vs clarabel {b} ({d} BW)\n{case:?}"
-                );
-            }
-            let dr = (ours.residual_bw(p) - reference.residual_bw(p)).abs();
-            assert!(
-                dr <= FORCE_TOL_BW,
-                "case {case_no} {start}: residual differs by {dr} BW"
-            );
-            assert_eq!(
-                grip_states(p, &st, &ours, ACTIVE_TOL_BW),
-                grip_states(p, &st, &reference, ACTIVE_TOL_BW),
-                "case {case_no} {start}: active sets differ\n{case:?}\n{ours:?}\n{reference:?}"
-            );
+            let what = format!("case {case_no} {start}");
+            worst = worst.max(assert_same_optimum(&what, &case, &ours, &reference));
         }
     }
     let newton = methods[SolveMethod::DualNewton as usize];
