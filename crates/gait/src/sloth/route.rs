@@ -106,6 +106,9 @@ impl Sloth {
         // forth: `transfer_failed`). The root distance alone passed there —
         // the branch's root runs within reach of a fore limb's root — while
         // every grip on it was more than a step below the fore claws.
+        // Wanderers only: a goal-mode back-off is one gait cycle, then it
+        // plans from where it stands (judged by steps, it gained
+        // branch_trunk at 0.15 m 148.5° and lost 0.2 m 103.5°).
         let undoing = |t: &super::Transfer| {
             t.to == g.support
                 && !self.leads(Limb::ALL[li])
@@ -118,7 +121,7 @@ impl Sloth {
                 self.leads(l)
                     && self
                         .neighbour_search(env, li, self.limbs[l.index()].grip.support, 0)
-                        .is_some_and(|sr| self.range_has_step(env, li, &sr))
+                        .is_some_and(|sr| !self.wander || self.range_has_step(env, li, &sr))
             })
         };
         if self.transfer.is_some_and(|t| undoing(&t)) && lead_in_reach() {
