@@ -6,14 +6,14 @@
 
 use glam::{Quat, Vec3};
 use slothsim_rig::{CcdParams, CcdResult, ChainPose, Limb, RootTransform};
-use slothsim_scene::SupportId;
+use slothsim_scene::{SupportId, SupportKind};
 
 use super::body::{
     BodyOffset, BodySide, body_offset, hind_back_share, rotation_from, swing_point, trunk_blend,
 };
 use super::solve::lanes8;
 use super::turn::{Turn, TurnStep};
-use super::{Grip, LocoView, Sloth};
+use super::{Grip, LimbPhase, LocoView, Sloth};
 
 /// Reach checks give up once a sweep gains less than this (metres)…
 const CHECK_MIN_IMPROVEMENT: f32 = 1e-5;
@@ -222,6 +222,40 @@ impl Sloth {
         });
         if kind_change && self.arc_body_penetrates(env, &mut stance_at) {
             return false;
+        }
+        // A step that ends a transfer onto all-trunk grips (undoing it):
+        // from its landing the body is drawn as on a trunk walk, settling to
+        // face the trunk from the grips' mean (`BodySide::Grips`), so the end
+        // stance's body is checked there too (checked only where it stood,
+        // a crowd sloth's body settled 35 mm into the trunk after such a step).
+        if let Some(after) = &ended {
+            let end = &stances[STANCE_CHECKS - 1];
+            let all_trunk = (0..4).all(|k| {
+                let held = if steps.iter().any(|s| s.0 == k) {
+                    support
+                } else {
+                    self.limbs[k].grip.support
+                };
+                scene.support(held).kind == SupportKind::Trunk
+            });
+            if all_trunk {
+                // The sloth as it stands once the step has landed.
+                let mut landed = *after;
+                for &(li, grip, normal) in steps {
+                    let l = &mut landed.limbs[li];
+                    l.grip.point = grip;
+                    l.grip.normal = normal;
+                    l.grip.support = support;
+                    l.target = grip;
+                    l.phase = LimbPhase::Planted;
+                }
+                let offset = body_offset(env, landed.trunk_weights(env));
+                let (pos, rot) = landed.body_for_targets(env, &end.grips, offset, BodySide::Grips);
+                let (pos2, rot2) = landed.body_for_targets(env, &end.grips, offset, BodySide::Body);
+                if landed.body_penetrates(env, pos, rot) || landed.body_penetrates(env, pos2, rot2) {
+                    return false;
+                }
+            }
         }
         self.stances_pass(env, &stances)
     }

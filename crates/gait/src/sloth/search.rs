@@ -372,21 +372,7 @@ impl Sloth {
     fn has_step(&self, env: &LocoView<'_>, li: usize) -> bool {
         let limb = Limb::ALL[li];
         let g = self.limbs[li].grip;
-        let scan = |sr: &Search| {
-            let len = env.scene().support(sr.support).length();
-            let mut u = sr.next_u;
-            while (u - sr.last_u) * sr.sdir >= -1e-6 {
-                if (env.cfg.end_margin_m..=len - env.cfg.end_margin_m).contains(&u)
-                    && self
-                        .candidate(env, &CandidateAt::probe(li, sr, u), &mut 0)
-                        .is_some()
-                {
-                    return true;
-                }
-                u -= sr.sdir * LOOKAHEAD_STRIDE;
-            }
-            false
-        };
+        let scan = |sr: &Search| self.range_has_step(env, li, sr);
         if scan(&self.own_search(env, li)) {
             return true;
         }
@@ -401,6 +387,25 @@ impl Sloth {
                     .neighbour_search(env, li, sid, 0)
                     .is_some_and(|sr| scan(&sr))
         })
+    }
+
+    /// Whether limb `li` has a forward candidate in range `sr` passing the
+    /// cheap checks and the reach check (no traces; every
+    /// [`LOOKAHEAD_STRIDE`]).
+    pub(super) fn range_has_step(&self, env: &LocoView<'_>, li: usize, sr: &Search) -> bool {
+        let len = env.scene().support(sr.support).length();
+        let mut u = sr.next_u;
+        while (u - sr.last_u) * sr.sdir >= -1e-6 {
+            if (env.cfg.end_margin_m..=len - env.cfg.end_margin_m).contains(&u)
+                && self
+                    .candidate(env, &CandidateAt::probe(li, sr, u), &mut 0)
+                    .is_some()
+            {
+                return true;
+            }
+            u -= sr.sdir * LOOKAHEAD_STRIDE;
+        }
+        false
     }
 
     /// The limb that lifts off next on the gait clock, if it does so while
