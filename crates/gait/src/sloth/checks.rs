@@ -225,9 +225,10 @@ impl Sloth {
         }
         // A step that ends a transfer onto all-trunk grips (undoing it):
         // from its landing the body is drawn as on a trunk walk, settling to
-        // face the trunk from the grips' mean (`BodySide::Grips`), so the end
-        // stance's body is checked there too (checked only where it stood,
-        // a crowd sloth's body settled 35 mm into the trunk after such a step).
+        // face the trunk from the grips' mean (`BodySide::Grips`), so the
+        // landed sloth's body is checked from both sides too (the end stance
+        // above keeps the limbs' old supports and draws another body: a crowd
+        // sloth's body settled 35 mm into the trunk after such a step).
         if let Some(after) = &ended {
             let end = &stances[STANCE_CHECKS - 1];
             let all_trunk = (0..4).all(|k| {
@@ -252,7 +253,8 @@ impl Sloth {
                 let offset = body_offset(env, landed.trunk_weights(env));
                 let (pos, rot) = landed.body_for_targets(env, &end.grips, offset, BodySide::Grips);
                 let (pos2, rot2) = landed.body_for_targets(env, &end.grips, offset, BodySide::Body);
-                if landed.body_penetrates(env, pos, rot) || landed.body_penetrates(env, pos2, rot2) {
+                if landed.body_penetrates(env, pos, rot) || landed.body_penetrates(env, pos2, rot2)
+                {
                     return false;
                 }
             }
