@@ -160,18 +160,17 @@ impl Sloth {
         // transfer's roll, so the end stance is checked that way (checked
         // rolled, an undone transfer left a crowd sloth's body 16 mm in a
         // support).
+        // The support limb `k` holds once the step has landed.
+        let held = |k: usize| {
+            if steps.iter().any(|s| s.0 == k) {
+                support
+            } else {
+                self.limbs[k].grip.support
+            }
+        };
         let ended = self
             .transfer
-            .filter(|t| {
-                (0..4).all(|k| {
-                    let held = if steps.iter().any(|s| s.0 == k) {
-                        support
-                    } else {
-                        self.limbs[k].grip.support
-                    };
-                    held != t.to
-                })
-            })
+            .filter(|t| (0..4).all(|k| held(k) != t.to))
             .map(|_| Sloth {
                 transfer: None,
                 ..*self
@@ -231,14 +230,7 @@ impl Sloth {
         // sloth's body settled 35 mm into the trunk after such a step).
         if let Some(after) = &ended {
             let end = &stances[STANCE_CHECKS - 1];
-            let all_trunk = (0..4).all(|k| {
-                let held = if steps.iter().any(|s| s.0 == k) {
-                    support
-                } else {
-                    self.limbs[k].grip.support
-                };
-                scene.support(held).kind == SupportKind::Trunk
-            });
+            let all_trunk = (0..4).all(|k| scene.support(held(k)).kind == SupportKind::Trunk);
             if all_trunk {
                 // The sloth as it stands once the step has landed.
                 let mut landed = *after;
