@@ -22,7 +22,7 @@ use bevy_ecs::batching::BatchingStrategy;
 use bevy_ecs::prelude::*;
 use bevy_ecs::schedule::SingleThreadedExecutor;
 use bevy_tasks::{ComputeTaskPool, TaskPoolBuilder};
-use slothsim_gait::{HashedPoint, Job, Jobs, Sloth};
+use slothsim_gait::{HashedPoint, Job, Jobs, Serial, Sloth};
 
 use crate::world::{
     BodyAverageMemo, CcdMemo, CrowdNeighbours, CrowdPoints, GripLoad, GripLoadEvery, Locomotion,
@@ -270,14 +270,27 @@ fn sloth_pass(
     timings.ccd_iterations_total += timings.ccd_iterations_last;
 }
 
-/// Runs the grid rebuild's jobs on bevy's compute pool.
+/// Runs the grid rebuild's jobs on bevy's compute pool: in order on the
+/// calling thread where the pool has one worker, else as one task per run of
+/// consecutive jobs, [`TASKS_PER_THREAD`] runs a worker (a task costs about as
+/// much as sorting one of the 64 partitions of a 1,000-sloth crowd).
 struct PoolJobs;
 
+/// Tasks per worker of a [`PoolJobs`] batch (a few, so uneven jobs balance).
+const TASKS_PER_THREAD: usize = 2;
+
 impl Jobs for PoolJobs {
-    fn run<'a>(&self, jobs: Vec<Job<'a>>) {
-        ComputeTaskPool::get().scope(|s| {
-            for job in jobs {
-                s.spawn(async move { job() });
+    fn run<'a>(&self, mut jobs: Vec<Job<'a>>) {
+        let pool = ComputeTaskPool::get();
+        let threads = pool.thread_num();
+        if threads <= 1 || jobs.len() <= 1 {
+            return Serial.run(jobs);
+        }
+        let per_task = jobs.len().div_ceil(threads * TASKS_PER_THREAD);
+        pool.scope(|s| {
+            while !jobs.is_empty() {
+                let run: Vec<Job<'a>> = jobs.drain(..per_task.min(jobs.len())).collect();
+                s.spawn(async move { Serial.run(run) });
             }
         });
     }
