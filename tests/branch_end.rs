@@ -109,11 +109,10 @@ fn turns_around_at_random_inclinations_and_radii() {
     assert_every_draw_passes(0.02..0.06);
 }
 
-/// Thick branches (0.06–0.08 m): 1 of the 40 seeded draws (22.888° r
-/// 0.0611 m) stalls after the turn, its fore limbs both at the branch's
-/// bottom (docs/scenarios.md). The goal; ignored until it holds.
+/// Thick branches (0.06–0.08 m): every draw passes since the turn's last
+/// re-grips look for a grip on each limb's own side first (the draw 22.888°
+/// r 0.0611 m stalled with both fore limbs left at the branch's bottom).
 #[test]
-#[ignore]
 fn turns_around_on_thick_branches() {
     assert_every_draw_passes(0.06..0.08);
 }

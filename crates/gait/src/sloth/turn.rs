@@ -330,63 +330,75 @@ impl Sloth {
         let len = s.length();
         let margin = env.cfg.end_margin_m;
         let n = (TURN_SEARCH_M / TURN_STRIDE_M).round() as i32;
-        (0..=2 * n).find_map(|k| {
-            // 0, +1, −1, +2, −2, …
-            let j = if k % 2 == 1 { (k + 1) / 2 } else { -(k / 2) };
-            let u = centre + j as f32 * TURN_STRIDE_M;
-            if !(margin..=len - margin).contains(&u) {
-                return None;
-            }
-            let a = axis_at(s, u);
-            // Around the branch: toward the root at the step's end, toward
-            // it at `ahead`, and between.
-            let out_to = |root: Vec3| {
-                let radial = root - a.point;
-                (radial - a.tangent * a.tangent.dot(radial)).normalize_or(-tr.up)
-            };
-            let (o0, o1) = (out_to(roots[0]), out_to(roots[1]));
-            let mid = (o0 + o1).normalize_or(o0);
-            // First the limb's own side at the step's end heading, where the
-            // walk grips it ([`grip_out`]), while that heading is within 60°
-            // of the branch's axis (across it, the side lies along the axis):
-            // the turn ends with each limb on its side for the handover.
-            let side = {
-                let g = grip_out(SupportKind::Branch, Limb::ALL[li], tr.fwd(to), tr.up, 0.0);
-                let g = g - a.tangent * a.tangent.dot(g);
-                if g.length() >= 0.5 { g.normalize() } else { o0 }
-            };
-            // …then every 45° on around the branch from between them.
-            let mut outs = [mid; AROUND + 3];
-            outs[0] = side;
-            outs[1] = o0;
-            outs[2] = o1;
-            for (m, o) in outs.iter_mut().skip(3).enumerate() {
-                let k = (m / 2 + 1) as f32 * if m % 2 == 0 { 1.0 } else { -1.0 };
-                *o = Quat::from_axis_angle(a.tangent, k * std::f32::consts::FRAC_PI_4) * mid;
-            }
-            outs.iter().enumerate().find_map(|(m, &out)| {
-                if outs[..m].iter().any(|o| o.dot(out) > 0.999) {
+        // The steps at the other way (`done`) first look for a grip on the
+        // limb's own side, within 60° of it, at every point of the window,
+        // and only then anywhere: the handover wants every limb on its side,
+        // and a limb left at the bottom or past it (the nearest reachable
+        // grip) holds the walk's first steps at its joint limits.
+        let passes: &[bool] = if done { &[true, false] } else { &[false] };
+        passes.iter().find_map(|&own_side_only| {
+            (0..=2 * n).find_map(|k| {
+                // 0, +1, −1, +2, −2, …
+                let j = if k % 2 == 1 { (k + 1) / 2 } else { -(k / 2) };
+                let u = centre + j as f32 * TURN_STRIDE_M;
+                if !(margin..=len - margin).contains(&u) {
                     return None;
                 }
-                let grip = a.point + out * a.radius;
-                if env.crowd.is_some_and(|g| g.blocked(self.id, grip)) {
-                    return None;
-                }
-                let handover = done && self.hands_over(tr, li, grip, out);
-                let step = TurnStep {
-                    limb: li,
-                    grip,
-                    normal: out,
-                    to,
-                    handover,
+                let a = axis_at(s, u);
+                // Around the branch: toward the root at the step's end, toward
+                // it at `ahead`, and between.
+                let out_to = |root: Vec3| {
+                    let radial = root - a.point;
+                    (radial - a.tangent * a.tangent.dot(radial)).normalize_or(-tr.up)
                 };
-                if !self.turn_step_reachable(env, tr, &step) {
-                    return None;
+                let (o0, o1) = (out_to(roots[0]), out_to(roots[1]));
+                let mid = (o0 + o1).normalize_or(o0);
+                // First the limb's own side at the step's end heading, where the
+                // walk grips it ([`grip_out`]), while that heading is within 60°
+                // of the branch's axis (across it, the side lies along the axis):
+                // the turn ends with each limb on its side for the handover.
+                let own = {
+                    let g = grip_out(SupportKind::Branch, Limb::ALL[li], tr.fwd(to), tr.up, 0.0);
+                    let g = g - a.tangent * a.tangent.dot(g);
+                    (g.length() >= 0.5).then(|| g.normalize())
+                };
+                let side = own.unwrap_or(o0);
+                // …then every 45° on around the branch from between them.
+                let mut outs = [mid; AROUND + 3];
+                outs[0] = side;
+                outs[1] = o0;
+                outs[2] = o1;
+                for (m, o) in outs.iter_mut().skip(3).enumerate() {
+                    let k = (m / 2 + 1) as f32 * if m % 2 == 0 { 1.0 } else { -1.0 };
+                    *o = Quat::from_axis_angle(a.tangent, k * std::f32::consts::FRAC_PI_4) * mid;
                 }
-                if lookahead && !done && !self.turn_holds_ahead(env, tr, &step) {
-                    return None;
-                }
-                Some(step)
+                outs.iter().enumerate().find_map(|(m, &out)| {
+                    if outs[..m].iter().any(|o| o.dot(out) > 0.999) {
+                        return None;
+                    }
+                    if own_side_only && !own.is_some_and(|g| g.dot(out) >= 0.5) {
+                        return None;
+                    }
+                    let grip = a.point + out * a.radius;
+                    if env.crowd.is_some_and(|g| g.blocked(self.id, grip)) {
+                        return None;
+                    }
+                    let handover = done && self.hands_over(tr, li, grip, out);
+                    let step = TurnStep {
+                        limb: li,
+                        grip,
+                        normal: out,
+                        to,
+                        handover,
+                    };
+                    if !self.turn_step_reachable(env, tr, &step) {
+                        return None;
+                    }
+                    if lookahead && !done && !self.turn_holds_ahead(env, tr, &step) {
+                        return None;
+                    }
+                    Some(step)
+                })
             })
         })
     }
