@@ -352,4 +352,64 @@ mod tests {
         }
         assert!(hits > 100, "{hits}");
     }
+
+    /// Several torsos at once (with the bound around them all): the same
+    /// answer as each torso on its own, on random polylines and clusters of
+    /// torsos (close, as a step's stances, and far apart).
+    #[test]
+    fn torsos_at_once_match_one_by_one() {
+        let mut s = 0x5eed_u64;
+        let mut rnd = || {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            (s >> 40) as f32 / (1u64 << 24) as f32
+        };
+        let (mut hits, mut misses) = (0, 0);
+        for n in [2usize, 3, 8, 9, 17, 40] {
+            for _ in 0..40 {
+                let mut p = Vec3::new(rnd() * 20.0, rnd() * 10.0, rnd() * 20.0);
+                let mut nodes = Vec::new();
+                let mut radii = Vec::new();
+                for _ in 0..n {
+                    nodes.push(p);
+                    radii.push(0.02 + rnd() * 0.3);
+                    p += Vec3::new(rnd() - 0.5, rnd() * 0.6 - 0.2, rnd() - 0.5) * 0.8;
+                }
+                let sup = slothsim_scene::Support::new(nodes.clone(), radii);
+                let chunks = crate::path::segment_chunks(&sup);
+                for _ in 0..200 {
+                    let k = (rnd() * (n - 1) as f32) as usize;
+                    let near = nodes[k].lerp(nodes[k + 1], rnd());
+                    let spread = [0.02, 0.1, 1.0][(rnd() * 3.0) as usize % 3];
+                    let count = 1 + (rnd() * MAX_BODIES as f32) as usize % MAX_BODIES;
+                    let c = near + Vec3::new(rnd() - 0.5, rnd() - 0.5, rnd() - 0.5) * 1.5;
+                    let torsos: Vec<[Vec3; 2]> = (0..count)
+                        .map(|_| {
+                            let ck = c + Vec3::new(rnd() - 0.5, rnd() - 0.5, rnd() - 0.5) * spread;
+                            let d = Vec3::new(rnd() - 0.5, rnd() - 0.5, rnd() - 0.5) * 0.6;
+                            [ck - d, ck + d]
+                        })
+                        .collect();
+                    let bounds: Vec<TorsoBound> =
+                        torsos.iter().map(|&t| TorsoBound::new(t)).collect();
+                    let all = TorsoBound::around(&bounds);
+                    for depth in [-0.2, 0.0, STANCE_MAX_PENETRATION, 0.05] {
+                        let one_by_one = torsos
+                            .iter()
+                            .any(|&t| torso_penetrates(&sup, &chunks, t, depth));
+                        let at_once =
+                            torsos_penetrate(&sup, &chunks, &torsos, &bounds, &all, depth);
+                        assert_eq!(one_by_one, at_once);
+                        if one_by_one {
+                            hits += 1;
+                        } else {
+                            misses += 1;
+                        }
+                    }
+                }
+            }
+        }
+        assert!(hits > 100 && misses > 100, "{hits} {misses}");
+    }
 }
