@@ -510,6 +510,16 @@ impl Sloth {
     /// often (the search tries the farthest candidates first); it is solved
     /// with the first arc point (nearly every call that gets this far checks
     /// all of them).
+    ///
+    /// No reachability pre-test skips these solves: measured on 1,000
+    /// sloths × 120 frames (issue 26), 81 % of the step checks pass, 17 %
+    /// fail on the body entering a support (before any IK), and only 2.3 %
+    /// fail here, near the edge of the limbs' reach (the failing claw ends
+    /// 1.5–32 mm from its target, median 9 mm): a conservative reject from
+    /// a reach field could spare at most those, about 3 % of the checks'
+    /// instructions. Nor may a solve be skipped as "surely reachable": the
+    /// warm starts lie centimetres from the stances' targets (the body moves
+    /// with the step), and within 1–2 cm of them some targets still fail.
     fn stances_hold(&self, env: &LocoView<'_>, stances: &[StanceCheck]) -> bool {
         let base = CcdParams {
             max_iterations: CHECK_MAX_ITERATIONS,
