@@ -14,6 +14,9 @@ use super::{LocoView, Sloth};
 /// A step may not put the body deeper than this into a support.
 const STANCE_MAX_PENETRATION: f32 = 0.005;
 
+/// Most bodies [`Sloth::bodies_penetrate`] takes at once.
+pub(super) const MAX_BODIES: usize = 16;
+
 /// Whether the torso capsule enters a support deeper than `depth`: the same
 /// as `torso_penetration(s, torso, depth) > depth`, returning at the first
 /// such segment. Runs of segments whose `chunks` bound (see
@@ -35,6 +38,47 @@ fn torso_penetrates(
     chunks.iter().enumerate().any(|(k, c)| {
         bound.may_reach_chunk(c, depth)
             && (k * SEGMENT_CHUNK..((k + 1) * SEGMENT_CHUNK).min(segments)).any(hit)
+    })
+}
+
+/// Whether any of the torso capsules `torsos` enters support `s` deeper than
+/// `depth`: the same as `torsos.iter().any(|&t| torso_penetrates(s, chunks, t, depth))`
+/// (an OR taken in another order), with the sphere `all` around all the
+/// torsos' spheres ([`TorsoBound::around`]) tested first: a run of segments,
+/// or a segment, it cannot reach is skipped for all the torsos at once (a
+/// step's stances put the body within centimetres of itself, so most are
+/// skipped once instead of once per stance).
+fn torsos_penetrate(
+    s: &slothsim_scene::Support,
+    chunks: &[SegmentChunk],
+    torsos: &[[Vec3; 2]],
+    bounds: &[TorsoBound],
+    all: &TorsoBound,
+    depth: f32,
+) -> bool {
+    let segments = s.nodes.len().saturating_sub(1);
+    if chunks.len() != segments.div_ceil(SEGMENT_CHUNK) {
+        return torsos
+            .iter()
+            .any(|&t| torso_penetrates(s, chunks, t, depth));
+    }
+    chunks.iter().enumerate().any(|(k, c)| {
+        if !all.may_reach_chunk(c, depth) {
+            return false;
+        }
+        // The torsos whose own bound lets them reach the run.
+        let mut near = [false; MAX_BODIES];
+        for (n, b) in near.iter_mut().zip(bounds) {
+            *n = b.may_reach_chunk(c, depth);
+        }
+        (k * SEGMENT_CHUNK..((k + 1) * SEGMENT_CHUNK).min(segments)).any(|i| {
+            all.may_exceed(s, i, depth)
+                && (0..torsos.len()).any(|t| {
+                    near[t]
+                        && bounds[t].may_exceed(s, i, depth)
+                        && segment_depth(s, i, torsos[t]) > depth
+                })
+        })
     })
 }
 
@@ -92,6 +136,25 @@ impl TorsoBound {
         Self {
             centre: (torso[0] + torso[1]) * 0.5,
             half: torso[0].distance(torso[1]) * 0.5,
+        }
+    }
+
+    /// A sphere holding every sphere of `bounds`: centred on their centres'
+    /// mean, its half length the farthest reach of one of them from there,
+    /// 0.1 mm more for rounding. Whatever segment or run one of them may
+    /// reach ([`Self::may_exceed`], [`Self::may_reach_chunk`]: both only
+    /// grow with `half`), it may reach too: `|centre − c| ≤ |centre_i − c|
+    /// + |centre − centre_i|` (triangle inequality).
+    fn around(bounds: &[TorsoBound]) -> Self {
+        let centre =
+            bounds.iter().fold(Vec3::ZERO, |a, b| a + b.centre) / bounds.len().max(1) as f32;
+        let half = bounds
+            .iter()
+            .map(|b| b.centre.distance(centre) + b.half)
+            .fold(0.0, f32::max);
+        Self {
+            centre,
+            half: half + 1e-4,
         }
     }
 
@@ -179,6 +242,51 @@ impl Sloth {
         })
     }
 
+    /// Whether any of the bodies `bodies` (position, rotation; at most
+    /// [`MAX_BODIES`]) would enter a support near the grips: the same as
+    /// `bodies.iter().any(|&(pos, rot)| self.body_penetrates(env, pos, rot))`,
+    /// the supports looked up once for all of them (see [`torsos_penetrate`]).
+    pub(super) fn bodies_penetrate(&self, env: &LocoView<'_>, bodies: &[(Vec3, Quat)]) -> bool {
+        assert!(bodies.len() <= MAX_BODIES, "at most {MAX_BODIES} bodies");
+        if bodies.is_empty() {
+            return false;
+        }
+        let scene = env.scene();
+        let mut torsos = [[Vec3::ZERO; 2]; MAX_BODIES];
+        for (t, &(pos, rot)) in torsos.iter_mut().zip(bodies) {
+            *t = [
+                pos + rot * env.rig.torso_ms[0],
+                pos + rot * env.rig.torso_ms[1],
+            ];
+        }
+        let torsos = &torsos[..bodies.len()];
+        let bounds: [TorsoBound; MAX_BODIES] =
+            std::array::from_fn(|k| TorsoBound::new(torsos.get(k).copied().unwrap_or(torsos[0])));
+        let bounds = &bounds[..bodies.len()];
+        let all = TorsoBound::around(bounds);
+        // Each support once (a held support is also its held neighbour's
+        // neighbour); past `seen`'s room, a support may be tested twice.
+        let mut seen = [SupportId(u32::MAX); 32];
+        let mut n_seen = 0;
+        self.near_supports(env).any(|id| {
+            if seen[..n_seen].contains(&id) {
+                return false;
+            }
+            if n_seen < seen.len() {
+                seen[n_seen] = id;
+                n_seen += 1;
+            }
+            torsos_penetrate(
+                scene.support(id),
+                env.adjacency.segment_chunks(id),
+                torsos,
+                bounds,
+                &all,
+                STANCE_MAX_PENETRATION,
+            )
+        })
+    }
+
     /// The supports the limbs hold (each once) and their neighbours: where
     /// the body could enter a support (the judge and the step checks alike).
     pub(super) fn near_supports<'w>(
@@ -243,5 +351,65 @@ mod tests {
             }
         }
         assert!(hits > 100, "{hits}");
+    }
+
+    /// Several torsos at once (with the bound around them all): the same
+    /// answer as each torso on its own, on random polylines and clusters of
+    /// torsos (close, as a step's stances, and far apart).
+    #[test]
+    fn torsos_at_once_match_one_by_one() {
+        let mut s = 0x5eed_u64;
+        let mut rnd = || {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            (s >> 40) as f32 / (1u64 << 24) as f32
+        };
+        let (mut hits, mut misses) = (0, 0);
+        for n in [2usize, 3, 8, 9, 17, 40] {
+            for _ in 0..40 {
+                let mut p = Vec3::new(rnd() * 20.0, rnd() * 10.0, rnd() * 20.0);
+                let mut nodes = Vec::new();
+                let mut radii = Vec::new();
+                for _ in 0..n {
+                    nodes.push(p);
+                    radii.push(0.02 + rnd() * 0.3);
+                    p += Vec3::new(rnd() - 0.5, rnd() * 0.6 - 0.2, rnd() - 0.5) * 0.8;
+                }
+                let sup = slothsim_scene::Support::new(nodes.clone(), radii);
+                let chunks = crate::path::segment_chunks(&sup);
+                for _ in 0..200 {
+                    let k = (rnd() * (n - 1) as f32) as usize;
+                    let near = nodes[k].lerp(nodes[k + 1], rnd());
+                    let spread = [0.02, 0.1, 1.0][(rnd() * 3.0) as usize % 3];
+                    let count = 1 + (rnd() * MAX_BODIES as f32) as usize % MAX_BODIES;
+                    let c = near + Vec3::new(rnd() - 0.5, rnd() - 0.5, rnd() - 0.5) * 1.5;
+                    let torsos: Vec<[Vec3; 2]> = (0..count)
+                        .map(|_| {
+                            let ck = c + Vec3::new(rnd() - 0.5, rnd() - 0.5, rnd() - 0.5) * spread;
+                            let d = Vec3::new(rnd() - 0.5, rnd() - 0.5, rnd() - 0.5) * 0.6;
+                            [ck - d, ck + d]
+                        })
+                        .collect();
+                    let bounds: Vec<TorsoBound> =
+                        torsos.iter().map(|&t| TorsoBound::new(t)).collect();
+                    let all = TorsoBound::around(&bounds);
+                    for depth in [-0.2, 0.0, STANCE_MAX_PENETRATION, 0.05] {
+                        let one_by_one = torsos
+                            .iter()
+                            .any(|&t| torso_penetrates(&sup, &chunks, t, depth));
+                        let at_once =
+                            torsos_penetrate(&sup, &chunks, &torsos, &bounds, &all, depth);
+                        assert_eq!(one_by_one, at_once);
+                        if one_by_one {
+                            hits += 1;
+                        } else {
+                            misses += 1;
+                        }
+                    }
+                }
+            }
+        }
+        assert!(hits > 100 && misses > 100, "{hits} {misses}");
     }
 }
