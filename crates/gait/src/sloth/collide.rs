@@ -306,30 +306,44 @@ impl Sloth {
 mod tests {
     use super::*;
 
-    /// The chunk bounds only skip segments that could not count: the same
-    /// answer as testing every segment, on random polylines and torsos.
-    #[test]
-    fn chunked_torso_penetrates_matches_every_segment() {
-        let mut s = 0xfeed_u64;
-        let mut rnd = || {
+    /// Uniform numbers in 0..1 from an xorshift generator seeded with `s`.
+    fn xorshift(mut s: u64) -> impl FnMut() -> f32 {
+        move || {
             s ^= s << 13;
             s ^= s >> 7;
             s ^= s << 17;
             (s >> 40) as f32 / (1u64 << 24) as f32
-        };
+        }
+    }
+
+    /// A random polyline support of `n` nodes (radii 0.02–0.32 m), its
+    /// segment chunks and its nodes.
+    fn random_support(
+        rnd: &mut impl FnMut() -> f32,
+        n: usize,
+    ) -> (slothsim_scene::Support, Vec<SegmentChunk>, Vec<Vec3>) {
+        let mut p = Vec3::new(rnd() * 20.0, rnd() * 10.0, rnd() * 20.0);
+        let mut nodes = Vec::new();
+        let mut radii = Vec::new();
+        for _ in 0..n {
+            nodes.push(p);
+            radii.push(0.02 + rnd() * 0.3);
+            p += Vec3::new(rnd() - 0.5, rnd() * 0.6 - 0.2, rnd() - 0.5) * 0.8;
+        }
+        let sup = slothsim_scene::Support::new(nodes.clone(), radii);
+        let chunks = crate::path::segment_chunks(&sup);
+        (sup, chunks, nodes)
+    }
+
+    /// The chunk bounds only skip segments that could not count: the same
+    /// answer as testing every segment, on random polylines and torsos.
+    #[test]
+    fn chunked_torso_penetrates_matches_every_segment() {
+        let mut rnd = xorshift(0xfeed);
         let mut hits = 0;
         for n in [2usize, 3, 8, 9, 17, 40] {
             for _ in 0..60 {
-                let mut p = Vec3::new(rnd() * 20.0, rnd() * 10.0, rnd() * 20.0);
-                let mut nodes = Vec::new();
-                let mut radii = Vec::new();
-                for _ in 0..n {
-                    nodes.push(p);
-                    radii.push(0.02 + rnd() * 0.3);
-                    p += Vec3::new(rnd() - 0.5, rnd() * 0.6 - 0.2, rnd() - 0.5) * 0.8;
-                }
-                let sup = slothsim_scene::Support::new(nodes.clone(), radii);
-                let chunks = crate::path::segment_chunks(&sup);
+                let (sup, chunks, nodes) = random_support(&mut rnd, n);
                 for _ in 0..200 {
                     let k = (rnd() * (n - 1) as f32) as usize;
                     let near = nodes[k].lerp(nodes[k + 1], rnd());
@@ -358,26 +372,11 @@ mod tests {
     /// torsos (close, as a step's stances, and far apart).
     #[test]
     fn torsos_at_once_match_one_by_one() {
-        let mut s = 0x5eed_u64;
-        let mut rnd = || {
-            s ^= s << 13;
-            s ^= s >> 7;
-            s ^= s << 17;
-            (s >> 40) as f32 / (1u64 << 24) as f32
-        };
+        let mut rnd = xorshift(0x5eed);
         let (mut hits, mut misses) = (0, 0);
         for n in [2usize, 3, 8, 9, 17, 40] {
             for _ in 0..40 {
-                let mut p = Vec3::new(rnd() * 20.0, rnd() * 10.0, rnd() * 20.0);
-                let mut nodes = Vec::new();
-                let mut radii = Vec::new();
-                for _ in 0..n {
-                    nodes.push(p);
-                    radii.push(0.02 + rnd() * 0.3);
-                    p += Vec3::new(rnd() - 0.5, rnd() * 0.6 - 0.2, rnd() - 0.5) * 0.8;
-                }
-                let sup = slothsim_scene::Support::new(nodes.clone(), radii);
-                let chunks = crate::path::segment_chunks(&sup);
+                let (sup, chunks, nodes) = random_support(&mut rnd, n);
                 for _ in 0..200 {
                     let k = (rnd() * (n - 1) as f32) as usize;
                     let near = nodes[k].lerp(nodes[k + 1], rnd());
