@@ -37,9 +37,6 @@ pub(super) struct CandidateAt {
     /// traced search does; the lookahead and the search for a committed step
     /// itself do not.
     may_commit_lift: bool,
-    /// A lookahead's probe, not the traced search: a first fore grip low on
-    /// a trunk is the traced search's only ([`Sloth::keeps_head_up`]).
-    probe: bool,
 }
 
 impl CandidateAt {
@@ -52,7 +49,6 @@ impl CandidateAt {
             sdir: sr.sdir,
             retreat: sr.retreat,
             may_commit_lift: true,
-            probe: false,
         }
     }
 
@@ -62,7 +58,6 @@ impl CandidateAt {
         CandidateAt {
             retreat: false,
             may_commit_lift: false,
-            probe: true,
             ..Self::in_search(li, sr, u)
         }
     }
@@ -157,7 +152,7 @@ impl Sloth {
             }
             Some(lj)
         };
-        if !self.keeps_head_up(env, at, &p) || self.crowded(env, &p) {
+        if !self.keeps_head_up(env, &p) || self.crowded(env, &p) {
             return None;
         }
         let (back_scale, lift) = self.reach_at(env, at, &p, passed_fore, checks)?;
@@ -429,7 +424,7 @@ impl Sloth {
     /// [`crate::LocomotionConfig::head_up_margin_m`] above the hind grips, and
     /// the hind limbs on the branch keep that far below the fore limbs on the
     /// trunk.
-    fn keeps_head_up(&self, env: &LocoView<'_>, at: &CandidateAt, p: &Placement) -> bool {
+    fn keeps_head_up(&self, env: &LocoView<'_>, p: &Placement) -> bool {
         let (limb, approx, a) = (p.limb, p.grip, p.axis);
         let margin = env.cfg.head_up_margin_m;
         if p.transfer.is_some() && limb.is_fore() && p.kind == SupportKind::Trunk {
@@ -438,40 +433,11 @@ impl Sloth {
             } else {
                 -a.tangent
             };
-            let top = |ls: [Limb; 2]| {
-                ls.map(|l| self.limbs[l.index()].grip.point.dot(axis_up))
-                    .into_iter()
-                    .fold(f32::NEG_INFINITY, f32::max)
-            };
-            let hind_top = top([Limb::LH, Limb::RH]);
-            // Down a rising branch the hind grips are above the fore ones.
-            // The first fore limb onto the trunk (its partner still on the
-            // branch, so the body is not yet on the trunk) may take it lower
-            // than the margin above them — no lower than that above the fore
-            // grips — once its partner has no step left along the branch:
-            // the fore limbs at the branch's end, the hind grips 8–10 cm
-            // above them and no grip that high within reach (branch_trunk
-            // below 75°). The partner's step to the trunk must then keep the
-            // head above the hips (`steps_reachable`). With the partner
-            // still able to walk on, the rule stands (else at 0.2 m, 70.5°,
-            // LF took the trunk with RF 0.2 m back on the branch, and the
-            // hind limbs stepped to and fro for ever).
-            let pj = limb.opposite().index();
-            let partner = self.limbs[pj].grip;
-            let floor = if approx.dot(axis_up) >= hind_top + margin
-                || at.probe
-                || env.scene().support(partner.support).kind == SupportKind::Trunk
-            {
-                hind_top
-            } else {
-                let fore_top = top([Limb::LF, Limb::RF]);
-                if fore_top < hind_top && !self.range_has_step(env, pj, &self.own_search(env, pj)) {
-                    fore_top
-                } else {
-                    hind_top
-                }
-            };
-            if approx.dot(axis_up) < floor + margin {
+            let hind_top = [Limb::LH, Limb::RH]
+                .map(|h| self.limbs[h.index()].grip.point.dot(axis_up))
+                .into_iter()
+                .fold(f32::NEG_INFINITY, f32::max);
+            if approx.dot(axis_up) < hind_top + margin {
                 return false;
             }
         } else if self.transfer.is_some_and(|t| t.to == t.trunk)
