@@ -316,6 +316,19 @@ fn branch_to_trunk_head_up_inside_the_thesis_range() {
 }
 
 #[test]
+fn branch_to_trunk_down_a_rising_branch_keeps_the_head_up() {
+    // Down a branch rising away from the trunk (73°, 0.15 m) the second fore
+    // limb's step onto the trunk had the head below the hips for 6 frames
+    // from its lift-off (the judge counts it on the trunk once both fore
+    // limbs hold it). Such a step is refused now, and the transfer finds
+    // another way down to the goal.
+    let r = run("branch_trunk", Some(73.0), TrunkVariant::Up, Profile::Free);
+    assert_measures_within_issue_limits(&r);
+    assert_eq!(r.judge.head_below_hips_on_trunk_frames, 0);
+    assert!(r.judge.goal_reached, "{:?}", r.verdict.failures);
+}
+
+#[test]
 fn trunk_to_branch_hind_pair_together() {
     // transfer_to_branch: climbing the trunk head up, the fore limbs take a
     // branch rising from it (60°–80°) or falling away from it (100°–150°),

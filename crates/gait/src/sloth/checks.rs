@@ -53,6 +53,24 @@ const TRANSFER_BODY_CHECKS: [f32; 16] = [
     0.05, 0.1, 0.15, 0.2, 0.25, 0.35, 0.4, 0.45, 0.5, 0.6, 0.65, 0.7, 0.75, 0.85, 0.9, 0.95,
 ];
 
+/// How far above the hips the head of a stance on a trunk must be (metres):
+/// the judge counts any frame with the head below them, and the check samples
+/// a step's arc ([`HEAD_CHECKS`]), not its frames. 1 cm lost branch_trunk at
+/// 0.2 m, 70.5–83.5°, which main passes with the head 4–5 mm above the hips
+/// as the second fore limb lifts off.
+const HEAD_ABOVE_HIPS_M: f32 = 0.001;
+
+/// A step's arc is checked for the head above the hips at this many points
+/// (from its lift-off, every 2.5 %: finer than the frames of a swing).
+const HEAD_CHECKS: usize = 40;
+
+/// Whether the head of a body at `pos`, `rot` is [`HEAD_ABOVE_HIPS_M`] above its hips.
+fn head_above_hips(env: &LocoView<'_>, pos: Vec3, rot: Quat) -> bool {
+    let head = pos + rot * env.rig.head_ms;
+    let hips = pos + rot * env.rig.hips_ms;
+    head.y >= hips.y + HEAD_ABOVE_HIPS_M
+}
+
 /// Whether CCD within the joint limits, from `pose`, gets the claw within
 /// `tol` of `target_ws` (and the error it ends at); `pose` is left where the
 /// solve ended. Solved only as close as the check needs (a passing check stops
@@ -222,6 +240,28 @@ impl Sloth {
         });
         if kind_change && self.arc_body_penetrates(env, &mut stance_at) {
             return false;
+        }
+        // Branch → trunk: a step after which both fore limbs hold the trunk
+        // (the judge's "on a trunk", from the second fore limb's lift-off)
+        // keeps the head above the hips from its lift-off, every 2.5 % of
+        // its arc, and at its end, as the body is drawn. The fore grips'
+        // height above the hind grips (`keeps_head_up`) does not show it:
+        // down a rising branch (branch_trunk at 65°, the first fore limb on
+        // the trunk 4 cm above the hind grips) a second fore limb's step to
+        // the trunk 19 cm above them had the head 12 cm below the hips at
+        // its lift-off, above them only a third of its swing later; at
+        // 70–76° such steps put the head below the hips for 2–8 frames.
+        let onto_trunk = self.transfer.is_some_and(|t| t.to == t.trunk);
+        let (lf, rf) = (Limb::LF.index(), Limb::RF.index());
+        if onto_trunk && held(lf) == held(rf) && scene.support(held(lf)).kind == SupportKind::Trunk
+        {
+            let head_up = |st: &StanceCheck| head_above_hips(env, st.pos, st.rot);
+            if !stances.iter().all(head_up)
+                || !(0..HEAD_CHECKS)
+                    .all(|k| head_up(&stance_at(Some(k as f32 / HEAD_CHECKS as f32))))
+            {
+                return false;
+            }
         }
         // A step that ends a transfer onto all-trunk grips (undoing it):
         // from its landing the body is drawn as on a trunk walk, settling to
