@@ -92,6 +92,10 @@ struct Placement {
     /// `transfer_to_branch`'s hind pair: the partner limb, its mirror grip on
     /// the branch's other side at the same arc length, and that grip's out.
     pair: Option<(usize, Vec3, Vec3)>,
+    /// A hind step on the trunk before the pair leaves it
+    /// ([`Sloth::hind_closing`]): measured along the axis toward the
+    /// junction, landing no higher than the partner's grip.
+    closing: bool,
 }
 
 impl Placement {
@@ -136,7 +140,27 @@ impl Sloth {
         at: &CandidateAt,
         checks: &mut u32,
     ) -> Option<(TraceRequest, Candidate)> {
-        let p = self.place(env, at);
+        // The lower hind limb's retreat closes up toward its partner instead
+        // (see `Sloth::start_retreat`).
+        let g = self.limbs[at.limb].grip;
+        let closing = (at.retreat && at.support == g.support && (at.u - g.u) * g.sdir > 0.0)
+            .then(|| self.hind_closing(env, at.limb, at.support))
+            .flatten();
+        let forward;
+        let at = if closing.is_some() {
+            forward = CandidateAt {
+                retreat: false,
+                ..*at
+            };
+            &forward
+        } else {
+            at
+        };
+        let mut p = self.place(env, at);
+        if let Some(toward) = closing {
+            p.travel = toward;
+            p.closing = true;
+        }
         if !self.step_in_range(env, at, &p) {
             return None;
         }
@@ -233,6 +257,7 @@ impl Sloth {
             body_fwd: self.body_rot * Vec3::Z,
             max_step,
             pair,
+            closing: false,
         }
     }
 
@@ -395,6 +420,10 @@ impl Sloth {
         }
         let opp = self.limbs[limb.opposite().index()].grip.point;
         let lead = (approx - opp).dot(p.travel);
+        if p.closing {
+            // Up toward the partner, never past it (the pair lands level).
+            return lead <= 0.0;
+        }
         // A limb normally lands level with or ahead of its girdle partner. One
         // left more than a step behind it (transfer steps reach around a
         // trunk and may split a girdle by more than a step) could never land

@@ -384,8 +384,35 @@ impl Sloth {
     /// limb has already retreated in this search.
     pub(super) fn start_retreat(&mut self, env: &LocoView<'_>, li: usize) -> bool {
         let g = self.limbs[li].grip;
-        if self.limbs[li].search.retreat {
+        let sr = self.limbs[li].search;
+        // Its close-up (below) was tried: a plain retreat is left.
+        let closed_up = sr.retreat && sr.support == g.support && (sr.first_u - g.u) * g.sdir > 0.0;
+        if sr.retreat && !closed_up {
             return false;
+        }
+        let neighbour =
+            u16::try_from(env.adjacency.neighbours(g.support).len()).unwrap_or(u16::MAX - 1);
+        // transfer_to_branch, a hind limb below its partner on the trunk
+        // while the fore limbs are across: before it retreats, it steps up
+        // toward the partner, never past it (`Sloth::hind_closing`): the pair
+        // lands level on the branch, and a step down parts it further. Its
+        // range lies ahead of the grip (a retreat's lies behind).
+        if !closed_up
+            && self.hind_closing(env, li, g.support).is_some_and(|toward| {
+                toward.dot(project(env.scene().support(g.support), g.point).tangent) * g.sdir > 0.0
+            })
+        {
+            self.limbs[li].search = Search {
+                support: g.support,
+                sdir: g.sdir,
+                first_u: g.u + g.sdir * env.cfg.search_distance_m,
+                next_u: g.u + g.sdir * env.cfg.search_distance_m,
+                last_u: g.u + g.sdir * env.cfg.min_step_m,
+                neighbour,
+                retreat: true,
+                goal_first: false,
+            };
+            return true;
         }
         self.limbs[li].search = Search {
             support: g.support,

@@ -284,6 +284,52 @@ impl Sloth {
         ready.then_some(partner)
     }
 
+    /// `transfer_to_branch` with the fore limbs across and both hind limbs
+    /// still on the trunk (the pair's stage, see [`Self::hind_pair`]): the
+    /// unit direction along the trunk's axis toward the junction, for hind
+    /// limb `li`'s step on the trunk `sid`. The pair must land level on the
+    /// branch (one arc length), so a hind limb below its partner steps up
+    /// toward it, never past it (see `Sloth::keeps_leg_order`): measured
+    /// along the body (which by then heads out along the branch), steps up
+    /// the trunk counted as backward and steps down as forward, so the hind
+    /// grips drifted apart and down (trunk_branch at 0.2 m, 130°: 0.17 m
+    /// apart, one of them always farther than a transfer step from the
+    /// pair's grips on the branch).
+    pub(super) fn hind_closing(
+        &self,
+        env: &LocoView<'_>,
+        li: usize,
+        sid: SupportId,
+    ) -> Option<Vec3> {
+        let tr = self.transfer?;
+        let limb = Limb::ALL[li];
+        let on_trunk = |i: usize| self.limbs[i].grip.support == tr.trunk;
+        if limb.is_fore()
+            || self.dir < 0.0
+            || self.hind_single
+            || tr.to == tr.trunk
+            || sid != tr.trunk
+            || !on_trunk(li)
+            || !on_trunk(limb.opposite().index())
+            || on_trunk(Limb::LF.index())
+            || on_trunk(Limb::RF.index())
+        {
+            return None;
+        }
+        let scene = env.scene();
+        let (t, b) = (scene.support(tr.trunk), scene.support(tr.to));
+        // The branch's root: its end nearer the trunk's axis.
+        let off = |p: Vec3| p.distance(project(t, p).point);
+        let (e0, e1) = (b.nodes[0], b.nodes[b.nodes.len() - 1]);
+        let root = if off(e0) <= off(e1) { e0 } else { e1 };
+        let here = project(t, self.limbs[li].grip.point);
+        let du = project(t, root).u - here.u;
+        let toward = here.tangent * if du >= 0.0 { 1.0 } else { -1.0 };
+        let partner = self.limbs[limb.opposite().index()].grip.point;
+        let behind = (partner - self.limbs[li].grip.point).dot(toward);
+        (behind >= env.cfg.min_step_m).then_some(toward)
+    }
+
     /// Swing progress of `transfer_to_branch`'s hind pair while it travels
     /// from the trunk onto the branch together (see [`Self::hind_pair`]).
     pub(super) fn hind_pair_swing_t(&self) -> Option<f32> {
