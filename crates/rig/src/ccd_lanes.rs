@@ -778,13 +778,13 @@ fn sweeps(
                     (q, eff, some)
                 }
                 _ => {
-                    let (axis, half, some) = {
-                        let (a1, h1, s1) = arc_step(e, target.sub(joint_pos), &cap);
-                        if j == 0 && (mid_saturated & lanes.active).any() {
-                            let b = frames.pos[1].sub(joint_pos);
-                            let d = target.sub(joint_pos);
-                            let s = sqrt(frames.pos[4].sub(frames.pos[1]).length_squared());
-                            let (a2, h2, s2) = ball_reach_step(b, d, s, &cap);
+                    let (axis, half, some) = if j == 0 && (mid_saturated & lanes.active).any() {
+                        let b = frames.pos[1].sub(joint_pos);
+                        let d = target.sub(joint_pos);
+                        let s = sqrt(frames.pos[4].sub(frames.pos[1]).length_squared());
+                        let (a2, h2, s2) = ball_reach_step(b, d, s, &cap);
+                        if (lanes.active & !mid_saturated).any() {
+                            let (a1, h1, s1) = arc_step(e, target.sub(joint_pos), &cap);
                             let m = mid_saturated;
                             (
                                 V::select(m, a2, a1),
@@ -792,8 +792,13 @@ fn sweeps(
                                 msel(m, s2, s1),
                             )
                         } else {
-                            (a1, h1, s1)
+                            // Every active lane takes the girdle reach: the
+                            // aiming step would be computed only for idle
+                            // lanes, whose results are never applied.
+                            (a2, h2, s2)
                         }
+                    } else {
+                        arc_step(e, target.sub(joint_pos), &cap)
                     };
                     let v = frames.dir_to_joint(j, axis).scale(half.1);
                     let turned = pose[j].mul(Q {
