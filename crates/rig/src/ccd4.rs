@@ -55,6 +55,20 @@ mod lanes4 {
         }
     }
 
+    /// Lane `i` of column `k` is `rows[i][k]` (a 4×4 transpose: shuffles
+    /// only, every bit unchanged).
+    #[inline(always)]
+    fn columns(rows: [glam::Vec4; N]) -> [F; 4] {
+        let m = glam::Mat4::from_cols(rows[0], rows[1], rows[2], rows[3]).transpose();
+        [m.x_axis, m.y_axis, m.z_axis, m.w_axis]
+    }
+
+    /// The inverse of [`columns`].
+    #[inline(always)]
+    fn rows(cols: [F; 4]) -> [glam::Vec4; N] {
+        columns(cols)
+    }
+
     include!("ccd_lanes.rs");
 }
 
@@ -76,10 +90,26 @@ mod lanes8 {
         x.sqrt()
     }
 
+    use crate::simd8::{columns, rows};
+
     include!("ccd_lanes.rs");
 }
 
 use lanes4::{Chains, Layout, Q, V};
+
+/// `v`'s four `f32`s as a `Vec4`, for the lane transposes (its `w` is
+/// whatever `v` holds there, unused).
+#[inline(always)]
+fn vec4_of(v: glam::Vec3A) -> glam::Vec4 {
+    #[cfg(target_arch = "x86_64")]
+    {
+        glam::Vec4::from(std::arch::x86_64::__m128::from(v))
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        v.extend(0.0)
+    }
+}
 
 /// Four limb chains prepared for [`solve4_prepared`]: copies of the chains plus their
 /// transposed (one chain per SIMD lane) constants and limit trigonometry, computed

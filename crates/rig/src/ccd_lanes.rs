@@ -69,18 +69,14 @@ impl V {
     /// Transpose: lane `i` gets `v[i]`.
     #[inline(always)]
     pub(super) fn gather(v: [Vec3A; N]) -> V {
-        V {
-            x: F::from_array(v.map(|p| p.x)),
-            y: F::from_array(v.map(|p| p.y)),
-            z: F::from_array(v.map(|p| p.z)),
-        }
+        let [x, y, z, _] = columns(v.map(super::vec4_of));
+        V { x, y, z }
     }
 
     /// Transpose back: the lanes' vectors.
     #[inline(always)]
     pub(super) fn scatter(self) -> [Vec3A; N] {
-        let (x, y, z) = (self.x.to_array(), self.y.to_array(), self.z.to_array());
-        std::array::from_fn(|i| Vec3A::new(x[i], y[i], z[i]))
+        rows([self.x, self.y, self.z, F::ZERO]).map(Vec3A::from_vec4)
     }
 
     #[inline(always)]
@@ -170,24 +166,14 @@ impl Q {
     /// Transpose: lane `i` gets `q[i]`.
     #[inline(always)]
     pub(super) fn gather(q: [Quat; N]) -> Q {
-        Q {
-            x: F::from_array(q.map(|q| q.x)),
-            y: F::from_array(q.map(|q| q.y)),
-            z: F::from_array(q.map(|q| q.z)),
-            w: F::from_array(q.map(|q| q.w)),
-        }
+        let [x, y, z, w] = columns(q.map(Vec4::from));
+        Q { x, y, z, w }
     }
 
     /// Transpose back: the lanes' quaternions.
     #[inline(always)]
     fn scatter(self) -> [Quat; N] {
-        let (x, y, z, w) = (
-            self.x.to_array(),
-            self.y.to_array(),
-            self.z.to_array(),
-            self.w.to_array(),
-        );
-        std::array::from_fn(|i| Quat::from_xyzw(x[i], y[i], z[i], w[i]))
+        rows([self.x, self.y, self.z, self.w]).map(Quat::from_vec4)
     }
 
     #[inline(always)]
@@ -792,13 +778,13 @@ fn sweeps(
                     (q, eff, some)
                 }
                 _ => {
-                    let (axis, half, some) = {
-                        let (a1, h1, s1) = arc_step(e, target.sub(joint_pos), &cap);
-                        if j == 0 && (mid_saturated & lanes.active).any() {
-                            let b = frames.pos[1].sub(joint_pos);
-                            let d = target.sub(joint_pos);
-                            let s = sqrt(frames.pos[4].sub(frames.pos[1]).length_squared());
-                            let (a2, h2, s2) = ball_reach_step(b, d, s, &cap);
+                    let (axis, half, some) = if j == 0 && (mid_saturated & lanes.active).any() {
+                        let b = frames.pos[1].sub(joint_pos);
+                        let d = target.sub(joint_pos);
+                        let s = sqrt(frames.pos[4].sub(frames.pos[1]).length_squared());
+                        let (a2, h2, s2) = ball_reach_step(b, d, s, &cap);
+                        if (lanes.active & !mid_saturated).any() {
+                            let (a1, h1, s1) = arc_step(e, target.sub(joint_pos), &cap);
                             let m = mid_saturated;
                             (
                                 V::select(m, a2, a1),
@@ -806,8 +792,13 @@ fn sweeps(
                                 msel(m, s2, s1),
                             )
                         } else {
-                            (a1, h1, s1)
+                            // Every active lane takes the girdle reach: the
+                            // aiming step would be computed only for idle
+                            // lanes, whose results are never applied.
+                            (a2, h2, s2)
                         }
+                    } else {
+                        arc_step(e, target.sub(joint_pos), &cap)
                     };
                     let v = frames.dir_to_joint(j, axis).scale(half.1);
                     let turned = pose[j].mul(Q {
@@ -939,6 +930,12 @@ pub(super) fn solve_impl(
     params: &CcdParams,
     tols: [f32; N],
 ) -> [CcdResult; N] {
+    let vector = params.order == CcdOrder::TailFirst && params.reach_step;
+    if let (true, Layout::Prepared(Some(c))) = (vector, layout)
+        && let Some(inputs) = Inputs::gather(&roots, &targets, poses, params, &tols)
+    {
+        return run(chains, c, inputs, poses, params);
+    }
     let lane_params: [CcdParams; N] = std::array::from_fn(|i| CcdParams {
         tolerance: tols[i],
         ..*params
@@ -960,15 +957,22 @@ pub(super) fn solve_impl(
             local[i] = root.inverse_transform_point(targets[i].into());
         }
     }
-    if valid == [true; N] && params.order == CcdOrder::TailFirst && params.reach_step {
-        match layout {
-            Layout::Prepared(Some(c)) => return run(chains, c, &local, poses, &lane_params),
-            Layout::Prepared(None) => {}
+    if valid == [true; N] && vector {
+        let built;
+        let c = match layout {
+            Layout::Prepared(c) => c,
             Layout::Build => {
-                if let Some(c) = Chains::new(chains) {
-                    return run(chains, &c, &local, poses, &lane_params);
-                }
+                built = Chains::new(chains);
+                built.as_ref()
             }
+        };
+        if let Some(c) = c {
+            let inputs = Inputs {
+                target: V::gather(local),
+                tols: F::from_array(tols),
+                pose: gather_poses(poses),
+            };
+            return run(chains, c, inputs, poses, params);
         }
     }
     for i in 0..N {
@@ -979,100 +983,174 @@ pub(super) fn solve_impl(
     results
 }
 
-/// The vector path for `N` valid lanes, then the scalar solver for the lanes that
-/// left it.
+/// The vector path's inputs: the targets in the chain-root frames, the
+/// tolerances and the warm-start poses, lane by lane.
+struct Inputs {
+    target: V,
+    tols: F,
+    pose: [Q; CHAIN_JOINTS],
+}
+
+impl Inputs {
+    /// The inputs of `N` lanes that all pass the scalar solver's checks
+    /// (valid parameters, finite target and root, finite pose), all lanes at
+    /// once; `None` where one does not (the lane-by-lane checks decide).
+    /// `root.inverse_transform_point(target)` in lanes: `rotation⁻¹ · (target −
+    /// position)`, glam's `inverse` being its conjugate and `Quat * Vec3A` the
+    /// formula of [`Q::rotate`]: the same bits.
+    #[inline(always)]
+    fn gather(
+        roots: &[RootTransform; N],
+        targets: &[Vec3; N],
+        poses: &[ChainPose; N],
+        params: &CcdParams,
+        tols: &[f32; N],
+    ) -> Option<Inputs> {
+        // The lanes' parameters differ in their tolerance only: validate the
+        // rest once (with a valid tolerance), then each tolerance (`> 0`, NaN
+        // fails, +∞ passes: as `CcdParams::validate`).
+        let shared = CcdParams {
+            tolerance: 1.0,
+            ..*params
+        };
+        if shared.validate().is_err() {
+            return None;
+        }
+        let tols = F::from_array(*tols);
+        let position = V::gather(roots.map(|r| r.position));
+        let rotation = Q::gather(roots.map(|r| r.rotation));
+        let target = V::gather(targets.map(Vec3A::from));
+        let pose = gather_poses(poses);
+        // (Functions, not closures: closures do not inherit the caller's
+        // target features, and the eight-lane kernel's AVX must inline.)
+        #[inline(always)]
+        fn finite(x: F) -> M {
+            x.abs().cmplt(splat(f32::INFINITY))
+        }
+        #[inline(always)]
+        fn finite_v(v: &V) -> M {
+            finite(v.x) & finite(v.y) & finite(v.z)
+        }
+        let mut ok = tols.cmpgt(F::ZERO) & finite_v(&position) & finite_v(&target);
+        ok &= finite_v(&rotation.xyz()) & finite(rotation.w);
+        for q in &pose {
+            ok &= finite_v(&q.xyz()) & finite(q.w);
+        }
+        if ok.bitmask() != (1 << N) - 1 {
+            return None;
+        }
+        Some(Inputs {
+            target: rotation.conjugate().rotate(target.sub(position)),
+            tols,
+            pose,
+        })
+    }
+}
+
+/// The lanes' poses, joint by joint.
+#[inline(always)]
+fn gather_poses(poses: &[ChainPose; N]) -> [Q; CHAIN_JOINTS] {
+    let mut pose = [Q::IDENTITY; CHAIN_JOINTS];
+    for (j, q) in pose.iter_mut().enumerate() {
+        *q = Q::gather(poses.map(|p| p.0[j]));
+    }
+    pose
+}
+
+/// The vector path for `N` valid lanes (`poses`: their warm starts, the
+/// same as `inputs.pose`), then the scalar solver for the lanes that left it.
 #[inline(always)]
 fn run(
     chains: [&LimbChain; N],
     c: &Chains,
-    local: &[Vec3A; N],
+    inputs: Inputs,
     poses: &mut [ChainPose; N],
-    lane_params: &[CcdParams; N],
+    params: &CcdParams,
 ) -> [CcdResult; N] {
-    // The lanes differ in their tolerance only.
-    let params = &lane_params[0];
-    let start = *poses;
-    let mut pose = [Q::IDENTITY; CHAIN_JOINTS];
-    for (j, q) in pose.iter_mut().enumerate() {
-        *q = Q::gather(start.map(|p| p.0[j]));
-    }
-    let target = V::gather(*local);
-    let tols = F::from_array(lane_params.map(|p| p.tolerance));
+    let Inputs {
+        target,
+        tols,
+        mut pose,
+    } = inputs;
     let (scalar, iterations, err_sq, h) = sweeps(c, target, &mut pose, params, tols);
     let error = sqrt(err_sq);
+    // The scalar lanes' warm starts, before `poses` is overwritten.
+    let scalar_bits = scalar.bitmask();
+    let start = if scalar_bits != 0 { *poses } else { [ChainPose::NEUTRAL; N] };
     for (j, q) in pose.iter().enumerate() {
         for (p, q) in poses.iter_mut().zip(q.scatter()) {
             p.0[j] = q;
         }
     }
-    let mut results = [CcdResult::rejected(CcdStatus::InvalidTarget); N];
+    let (error_a, iterations_a) = (error.to_array(), iterations.to_array());
+    let mut results: [CcdResult; N] = std::array::from_fn(|i| CcdResult {
+        reached: true,
+        error: error_a[i],
+        iterations: iterations_a[i] as u32,
+        status: CcdStatus::Reached,
+    });
+    if scalar_bits == 0 {
+        return results;
+    }
+    let local = target.scatter();
+    let tols = tols.to_array();
     for i in 0..N {
-        if scalar.test(i) {
-            let params = &lane_params[i];
-            #[cfg(test)]
-            crate::ccd4::tests::SCALAR_LANES.with(|n| n.set(n.get() + 1));
-            let start_err = lane(h.start_err, i);
-            let resume = |pose: &mut ChainPose, from: SweepFrom| {
-                resume_local_dispatch(
-                    chains[i], local[i], &start[i], start_err, pose, params, from,
-                )
-            };
-            results[i] = if h.stall.test(i) {
-                // The scalar solve undoes the stalled sweep and goes on without
-                // reach steps from the next one.
-                for j in 0..CHAIN_JOINTS {
-                    poses[i].0[j] = h.stall_pose[j].scatter()[i];
-                }
-                let prev_err = lane(h.stall_prev_err, i);
-                let from = SweepFrom {
-                    iter: lane(h.stall_iter, i) as u32 + 1,
-                    prev_err,
-                    err_sq: prev_err * prev_err,
-                    reach_step: false,
-                };
-                resume(&mut poses[i], from)
-            } else if h.resume.test(i) {
-                // The scalar solve goes on from the next sweep (none left at
-                // `max_iterations`: it polishes from this pose).
-                let from = SweepFrom {
-                    iter: h.resume_iter,
-                    prev_err: lane(error, i),
-                    err_sq: lane(err_sq, i),
-                    reach_step: true,
-                };
-                resume(&mut poses[i], from)
-            } else if h.smooth.test(i) {
-                let reached = CcdResult {
-                    reached: true,
-                    error: lane(error, i),
-                    iterations: lane(iterations, i) as u32,
-                    status: CcdStatus::Reached,
-                };
-                smooth_guard_dispatch(
-                    chains[i],
-                    local[i],
-                    &start[i],
-                    start_err,
-                    &mut poses[i],
-                    params,
-                    reached,
-                )
-            } else {
-                poses[i] = start[i];
-                solve_local_dispatch(chains[i], local[i], &mut poses[i], params)
-            };
-        } else {
-            results[i] = CcdResult {
-                reached: true,
-                error: lane(error, i),
-                iterations: lane(iterations, i) as u32,
-                status: CcdStatus::Reached,
-            };
+        if scalar_bits & (1 << i) == 0 {
+            continue;
         }
+        let params = &CcdParams {
+            tolerance: tols[i],
+            ..*params
+        };
+        #[cfg(test)]
+        crate::ccd4::tests::SCALAR_LANES.with(|n| n.set(n.get() + 1));
+        let start_err = lane(h.start_err, i);
+        let resume = |pose: &mut ChainPose, from: SweepFrom| {
+            resume_local_dispatch(
+                chains[i], local[i], &start[i], start_err, pose, params, from,
+            )
+        };
+        results[i] = if h.stall.test(i) {
+            // The scalar solve undoes the stalled sweep and goes on without
+            // reach steps from the next one.
+            for j in 0..CHAIN_JOINTS {
+                poses[i].0[j] = h.stall_pose[j].scatter()[i];
+            }
+            let prev_err = lane(h.stall_prev_err, i);
+            let from = SweepFrom {
+                iter: lane(h.stall_iter, i) as u32 + 1,
+                prev_err,
+                err_sq: prev_err * prev_err,
+                reach_step: false,
+            };
+            resume(&mut poses[i], from)
+        } else if h.resume.test(i) {
+            // The scalar solve goes on from the next sweep (none left at
+            // `max_iterations`: it polishes from this pose).
+            let from = SweepFrom {
+                iter: h.resume_iter,
+                prev_err: error_a[i],
+                err_sq: lane(err_sq, i),
+                reach_step: true,
+            };
+            resume(&mut poses[i], from)
+        } else if h.smooth.test(i) {
+            smooth_guard_dispatch(
+                chains[i],
+                local[i],
+                &start[i],
+                start_err,
+                &mut poses[i],
+                params,
+                results[i],
+            )
+        } else {
+            poses[i] = start[i];
+            solve_local_dispatch(chains[i], local[i], &mut poses[i], params)
+        };
     }
     results
 }
-
 /// Joints 1..3 and the effector in world space, lane `i` exactly `fk(roots[i],
 /// &poses[i])[1..5]` of its chain (the forward kinematics of
 /// [`LimbChain::fk_local`] in SIMD lanes, its operations in its order; index 3

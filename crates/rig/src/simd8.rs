@@ -180,6 +180,68 @@ impl Neg for F8 {
     }
 }
 
+/// Eight rows of four `f32`s as four columns of eight lanes: lane `i` of
+/// column `k` is `rows[i][k]`. Pure data movement (an 8×4 transpose: each
+/// half of the register is the classic 4×4 `unpack`/`shuffle` transpose of
+/// four rows), so every bit, NaN payloads included, arrives unchanged.
+#[inline(always)]
+pub(crate) fn columns(rows: [glam::Vec4; 8]) -> [F8; 4] {
+    let r = rows.map(__m128::from);
+    // SAFETY: register-only AVX intrinsics, reached only from AVX2-enabled code on a CPU with AVX2 (module docs).
+    unsafe {
+        // Rows i and i + 4 in the two halves of one register. (No closures
+        // here: they would not inherit the caller's AVX, see the module docs.)
+        let a0 = _mm256_insertf128_ps::<1>(_mm256_castps128_ps256(r[0]), r[4]);
+        let a1 = _mm256_insertf128_ps::<1>(_mm256_castps128_ps256(r[1]), r[5]);
+        let a2 = _mm256_insertf128_ps::<1>(_mm256_castps128_ps256(r[2]), r[6]);
+        let a3 = _mm256_insertf128_ps::<1>(_mm256_castps128_ps256(r[3]), r[7]);
+        // [x0 x1 y0 y1], [z0 z1 w0 w1], [x2 x3 y2 y3], [z2 z3 w2 w3] (per half)
+        let t0 = _mm256_unpacklo_ps(a0, a1);
+        let t1 = _mm256_unpackhi_ps(a0, a1);
+        let t2 = _mm256_unpacklo_ps(a2, a3);
+        let t3 = _mm256_unpackhi_ps(a2, a3);
+        [
+            F8(_mm256_shuffle_ps::<0b01_00_01_00>(t0, t2)),
+            F8(_mm256_shuffle_ps::<0b11_10_11_10>(t0, t2)),
+            F8(_mm256_shuffle_ps::<0b01_00_01_00>(t1, t3)),
+            F8(_mm256_shuffle_ps::<0b11_10_11_10>(t1, t3)),
+        ]
+    }
+}
+
+/// The inverse of [`columns`]: row `i` is lane `i` of the four columns
+/// (pure data movement).
+#[inline(always)]
+pub(crate) fn rows(cols: [F8; 4]) -> [glam::Vec4; 8] {
+    let [F8(x), F8(y), F8(z), F8(w)] = cols;
+    // SAFETY: register-only AVX intrinsics, reached only from AVX2-enabled code on a CPU with AVX2 (module docs).
+    unsafe {
+        // [x0 y0 x1 y1], [x2 y2 x3 y3], [z0 w0 z1 w1], [z2 w2 z3 w3] (per half)
+        let t0 = _mm256_unpacklo_ps(x, y);
+        let t1 = _mm256_unpackhi_ps(x, y);
+        let t2 = _mm256_unpacklo_ps(z, w);
+        let t3 = _mm256_unpackhi_ps(z, w);
+        // Rows i (low half) and i + 4 (high half).
+        let r = [
+            _mm256_shuffle_ps::<0b01_00_01_00>(t0, t2),
+            _mm256_shuffle_ps::<0b11_10_11_10>(t0, t2),
+            _mm256_shuffle_ps::<0b01_00_01_00>(t1, t3),
+            _mm256_shuffle_ps::<0b11_10_11_10>(t1, t3),
+        ];
+        [
+            _mm256_castps256_ps128(r[0]),
+            _mm256_castps256_ps128(r[1]),
+            _mm256_castps256_ps128(r[2]),
+            _mm256_castps256_ps128(r[3]),
+            _mm256_extractf128_ps::<1>(r[0]),
+            _mm256_extractf128_ps::<1>(r[1]),
+            _mm256_extractf128_ps::<1>(r[2]),
+            _mm256_extractf128_ps::<1>(r[3]),
+        ]
+        .map(glam::Vec4::from)
+    }
+}
+
 impl M8 {
     #[inline(always)]
     pub(crate) fn splat(v: bool) -> M8 {
