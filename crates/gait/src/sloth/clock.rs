@@ -17,7 +17,7 @@ impl Sloth {
             if self.limbs[li].fallback.is_some_and(|fb| {
                 self.time + dt > fb.by_s && self.limbs[li].phase != LimbPhase::Swinging
             }) {
-                self.start_fallback_swing(li);
+                self.start_fallback_swing(env, li);
             }
         }
         if let Some((d, true)) = self.goal_distance(env)

@@ -305,6 +305,12 @@ pub struct Sloth {
     /// Turning around at a branch end, if under way (see `turn.rs`).
     #[serde(default)]
     pub turn: Option<Turn>,
+    /// Wander mode: where the body was at the first turn-back since it last
+    /// travelled a max step, and the turn-backs since (see
+    /// `Sloth::note_step`): steps that leave the body near where it turned
+    /// back do not end this stall, as they end [`Self::stalled_turns`].
+    #[serde(default)]
+    pub stall_from: Option<(Vec3, u8)>,
 }
 
 /// Serde for [`ChainPose`] (four quaternions, bit-exact through serde's f32).

@@ -439,6 +439,8 @@ impl Sloth {
         self.failed_searches = 0;
         self.turns = self.turns.wrapping_add(1);
         self.stalled_turns += 1;
+        let (_, n) = self.stall_from.get_or_insert((self.body_pos, 0));
+        *n = n.saturating_add(1);
     }
 
     /// Side steps around trunk `sid` (SPEC `find_side_step`): when the goal

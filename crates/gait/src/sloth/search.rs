@@ -178,9 +178,7 @@ impl Sloth {
             if pair.is_some() {
                 self.hind_back_scale = back_scale;
             }
-            self.failed_searches = 0;
-            self.stalled_turns = 0;
-            self.stuck_cause = None;
+            self.note_step(env);
             self.note_transfer_stance(env, li);
         }
         batch.len = 0;
@@ -274,7 +272,7 @@ impl Sloth {
             // This support is exhausted: try the next neighbour, then a retreat.
             // Nothing better than a committed step: take it.
             if self.limbs[li].fallback.is_some() {
-                self.start_fallback_swing(li);
+                self.start_fallback_swing(env, li);
                 return;
             }
             if !self.next_neighbour(env, li) && !self.start_retreat(env, li) {
@@ -303,7 +301,7 @@ impl Sloth {
     /// body around. Goal mode otherwise: re-plan (`replan.rs`), else stop.
     pub(super) fn give_up(&mut self, env: &LocoView<'_>) {
         self.stuck_cause = Some(self.diagnose_stuck(env));
-        let stalled = self.wander && self.stalled_turns >= MAX_STALLED_TURNS;
+        let stalled = self.stalled();
         if (stalled && self.may_turn_around(env, false))
             || (self.goal_behind() && self.may_turn_around(env, true))
         {
@@ -512,7 +510,7 @@ impl Sloth {
 
     /// Starts limb `li`'s swing to its committed step, if it has one (see
     /// [`LimbState::fallback`]).
-    pub(super) fn start_fallback_swing(&mut self, li: usize) {
+    pub(super) fn start_fallback_swing(&mut self, env: &LocoView<'_>, li: usize) {
         let Some(fb) = self.limbs[li].fallback.take() else {
             return;
         };
@@ -524,9 +522,35 @@ impl Sloth {
         l.phase = LimbPhase::Swinging;
         l.swing_t = 0.0;
         l.due = false;
+        self.note_step(env);
+    }
+
+    /// A step was taken: the search's failures and the turn-backs without a
+    /// step ([`Sloth::stalled_turns`]) are over. The turn-backs since the
+    /// body last travelled ([`Sloth::stall_from`]) count on until it is a
+    /// max step from where the first of them was made: a wanderer boxed in
+    /// at a junction re-gripped a few centimetres back and forth between its
+    /// turn-backs, each step clearing the count, so it never reached the
+    /// turn around (and, at a branch's root, kept a sloth on the trunk
+    /// beside it stuck).
+    fn note_step(&mut self, env: &LocoView<'_>) {
         self.failed_searches = 0;
         self.stalled_turns = 0;
         self.stuck_cause = None;
+        if self
+            .stall_from
+            .is_some_and(|(p, _)| p.distance(self.body_pos) >= env.cfg.max_step_m)
+        {
+            self.stall_from = None;
+        }
+    }
+
+    /// Wander mode: turn-backs have brought no way on — two without a step,
+    /// or two since the body last travelled a max step.
+    fn stalled(&self) -> bool {
+        self.wander
+            && (self.stalled_turns >= MAX_STALLED_TURNS
+                || self.stall_from.is_some_and(|(_, n)| n >= MAX_STALLED_TURNS))
     }
 
     /// Why no limb found a step (called when the search gives up): a

@@ -112,6 +112,7 @@ impl Sloth {
             seed: 0,
             turns: 0,
             stalled_turns: 0,
+            stall_from: None,
             resume_at: None,
             load: crate::load::LoadTrack::default(),
             backoff: None,

@@ -92,14 +92,25 @@ impl Turn {
 
 impl Sloth {
     /// Whether a sloth whose search found nothing anywhere may turn around
-    /// here: head first on a branch it alone holds (all four limbs on it,
-    /// none in the air), no transfer under way, and with `at_end` only
-    /// within a search distance of the branch's end it heads for.
+    /// here: on a branch it alone holds (all four limbs on it, none in the
+    /// air), no transfer under way. With `at_end` (goal mode, the goal
+    /// behind) only head first, with no transfer set up, and within a search
+    /// distance of the branch's end it heads for. Without it (a wanderer
+    /// whose turn backs brought no step) also travelling tail first (two
+    /// turn backs leave the travel as it was, so a sloth that had stopped
+    /// tail first never turned around), and with a transfer only set up by
+    /// a search (no limb on its target: a branch's root end with the trunk
+    /// taken by other sloths; it rolls the body nothing, so dropping it for
+    /// the turn moves nothing).
     pub(super) fn may_turn_around(&self, env: &LocoView<'_>, at_end: bool) -> bool {
         let sid = self.limbs[0].grip.support;
+        let transfer_ok = match self.transfer {
+            None => true,
+            Some(t) => !at_end && self.limbs.iter().all(|l| l.grip.support != t.to),
+        };
         self.turn.is_none()
-            && self.dir > 0.0
-            && self.transfer.is_none()
+            && (self.dir > 0.0 || !at_end)
+            && transfer_ok
             && self.hang_trunk.is_none()
             && env.scene().support(sid).kind == SupportKind::Branch
             && self
@@ -120,6 +131,8 @@ impl Sloth {
 
     /// Starts a turn around from the current stance (see the module docs).
     pub(super) fn start_turn(&mut self) {
+        // A transfer only set up (see `may_turn_around`) is given up.
+        self.transfer = None;
         let t = self.limbs.map(|l| l.target);
         // The frame the body has now (formula 6, below the branch).
         let fwd0 = self.formula6_fwd(&t);
@@ -208,6 +221,7 @@ impl Sloth {
         self.turns = self.turns.wrapping_add(1);
         self.failed_searches = 0;
         self.stalled_turns = 0;
+        self.stall_from = None;
         self.stuck_cause = None;
     }
 
