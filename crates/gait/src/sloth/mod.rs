@@ -251,6 +251,10 @@ pub struct Sloth {
     pub goal_side: Option<Vec3>,
     /// Step searches that found nothing since the last step taken.
     pub failed_searches: u8,
+    /// Livelock watch outside transfers: the stances taken by steps made
+    /// while the search was failing (see [`Sloth::note_stuck_stance`]).
+    #[serde(default)]
+    pub stuck_stances: transfer::StanceRing,
     /// Autorun: no goal; at a dead end (or blocked by other sloths) turn
     /// back instead of stopping, and pick among neighbour supports by `seed`.
     pub wander: bool,

@@ -153,6 +153,7 @@ impl Sloth {
             if self.stuck_cause.is_none() && !self.leaves_a_step(env, li, grip, pair_grip) {
                 continue;
             }
+            let failing = self.failed_searches > 0;
             for (lj, g) in std::iter::once((li, grip)).chain(pair_grip) {
                 chosen[lj] = true;
                 let l = &mut self.limbs[lj];
@@ -180,6 +181,7 @@ impl Sloth {
             }
             self.note_step(env);
             self.note_transfer_stance(env, li);
+            self.note_stuck_stance(env, li, failing);
         }
         batch.len = 0;
         for li in 0..4 {

@@ -108,6 +108,7 @@ impl Sloth {
             goal_tolerance: goal.map_or(0.3, |g| g.2),
             goal_side: None,
             failed_searches: 0,
+            stuck_stances: Default::default(),
             wander: false,
             seed: 0,
             turns: 0,

@@ -63,6 +63,25 @@ const STANCE_GRID_M: f32 = 1e-4;
 /// [`Sloth::note_transfer_stance`]).
 const STANCE_CIRCLES: u8 = 2;
 
+/// A stance outside a transfer taken again this many times gives up (see
+/// [`Sloth::note_stuck_stance`]): one round more than a transfer's watch
+/// allows (branch_trunk at 71.5°, 0.15 m: RH re-gripped round three grips
+/// on the trunk, and the fourth round ended elsewhere).
+const STUCK_STANCE_CIRCLES: u8 = STANCE_CIRCLES + 1;
+
+/// The stances a sloth took while its search was failing, outside a
+/// transfer (see [`Sloth::note_stuck_stance`]): a ring of keys as in
+/// [`Transfer::stance_keys`].
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct StanceRing {
+    /// The last [`STANCES_KEPT`] stances' keys.
+    pub keys: [u32; STANCES_KEPT],
+    /// Times each of [`Self::keys`] was taken again.
+    pub visits: [u8; STANCES_KEPT],
+    /// Stances recorded (the ring's next slot is this modulo [`STANCES_KEPT`]).
+    pub count: u32,
+}
+
 fn plus_one() -> f32 {
     1.0
 }
@@ -161,13 +180,7 @@ impl Sloth {
             self.transfer = Some(tr);
             return;
         }
-        let mut key = mix64(li as u64);
-        for l in &self.limbs {
-            for c in l.grip.point.to_array() {
-                key = mix64(key ^ ((c / STANCE_GRID_M).round() as i64 as u64));
-            }
-        }
-        let key = key as u32;
+        let key = self.stance_key(li);
         let kept = (tr.stance_count as usize).min(STANCES_KEPT);
         let seen = (0..kept).find(|&k| tr.stance_keys[k] == key);
         match seen {
@@ -188,6 +201,58 @@ impl Sloth {
                 tr.stance_visits[slot] = 0;
                 tr.stance_count = tr.stance_count.wrapping_add(1);
                 self.transfer = Some(tr);
+            }
+        }
+    }
+
+    /// The key of the stance limb `li`'s step took: the limb (its place in
+    /// the footfall order) and the four grips on a [`STANCE_GRID_M`] grid.
+    fn stance_key(&self, li: usize) -> u32 {
+        let mut key = mix64(li as u64);
+        for l in &self.limbs {
+            for c in l.grip.point.to_array() {
+                key = mix64(key ^ ((c / STANCE_GRID_M).round() as i64 as u64));
+            }
+        }
+        key as u32
+    }
+
+    /// Livelock watch outside a transfer (issue 24), after limb `li` took a
+    /// step; `failing`: the search had failed since the step before. A limb
+    /// that re-grips round a few grips while the others find nothing
+    /// resets the failed-search count with each step, so the search never
+    /// gives up (trunk_branch at 144.5°, 0.08 m: the transfer done, LH went
+    /// 0.669 → 0.629 → 0.589 m and forward to 0.669 m again, for ever). A
+    /// stance such a step took [`STUCK_STANCE_CIRCLES`] times before is
+    /// taken again: the search gives up (`Sloth::give_up`). A step taken
+    /// with the search not failing (progress), a transfer, a back-off or a
+    /// turn starts the record again.
+    pub(super) fn note_stuck_stance(&mut self, env: &LocoView<'_>, li: usize, failing: bool) {
+        let mut r = self.stuck_stances;
+        if !failing || self.transfer.is_some() || self.backoff.is_some() || self.turn.is_some() {
+            self.stuck_stances.count = 0;
+            return;
+        }
+        let key = self.stance_key(li);
+        let kept = (r.count as usize).min(STANCES_KEPT);
+        match (0..kept).find(|&k| r.keys[k] == key) {
+            Some(k) if r.visits[k] + 1 >= STUCK_STANCE_CIRCLES => {
+                r.count = 0;
+                self.stuck_stances = r;
+                if self.status == Status::Moving {
+                    self.give_up(env);
+                }
+            }
+            Some(k) => {
+                r.visits[k] += 1;
+                self.stuck_stances = r;
+            }
+            None => {
+                let slot = r.count as usize % STANCES_KEPT;
+                r.keys[slot] = key;
+                r.visits[slot] = 0;
+                r.count = r.count.wrapping_add(1);
+                self.stuck_stances = r;
             }
         }
     }
