@@ -82,6 +82,37 @@ pub struct StanceRing {
     pub count: u32,
 }
 
+/// Records stance `key` in a ring of the last [`STANCES_KEPT`] stances
+/// (`keys`, their repeat counts `visits`, `count` recorded): true when it was
+/// taken `circles` times before, and the ring starts again (the livelock
+/// watches, [`Sloth::note_transfer_stance`] and [`Sloth::note_stuck_stance`]).
+fn visit_stance(
+    keys: &mut [u32; STANCES_KEPT],
+    visits: &mut [u8; STANCES_KEPT],
+    count: &mut u32,
+    key: u32,
+    circles: u8,
+) -> bool {
+    let kept = (*count as usize).min(STANCES_KEPT);
+    match (0..kept).find(|&k| keys[k] == key) {
+        Some(k) if visits[k] + 1 >= circles => {
+            *count = 0;
+            true
+        }
+        Some(k) => {
+            visits[k] += 1;
+            false
+        }
+        None => {
+            let slot = *count as usize % STANCES_KEPT;
+            keys[slot] = key;
+            visits[slot] = 0;
+            *count = count.wrapping_add(1);
+            false
+        }
+    }
+}
+
 fn plus_one() -> f32 {
     1.0
 }
@@ -181,27 +212,16 @@ impl Sloth {
             return;
         }
         let key = self.stance_key(li);
-        let kept = (tr.stance_count as usize).min(STANCES_KEPT);
-        let seen = (0..kept).find(|&k| tr.stance_keys[k] == key);
-        match seen {
-            Some(k) if tr.stance_visits[k] + 1 >= STANCE_CIRCLES => {
-                tr.stance_count = 0;
-                self.transfer = Some(tr);
-                if self.status == Status::Moving {
-                    self.give_up(env);
-                }
-            }
-            Some(k) => {
-                tr.stance_visits[k] += 1;
-                self.transfer = Some(tr);
-            }
-            None => {
-                let slot = tr.stance_count as usize % STANCES_KEPT;
-                tr.stance_keys[slot] = key;
-                tr.stance_visits[slot] = 0;
-                tr.stance_count = tr.stance_count.wrapping_add(1);
-                self.transfer = Some(tr);
-            }
+        let circled = visit_stance(
+            &mut tr.stance_keys,
+            &mut tr.stance_visits,
+            &mut tr.stance_count,
+            key,
+            STANCE_CIRCLES,
+        );
+        self.transfer = Some(tr);
+        if circled && self.status == Status::Moving {
+            self.give_up(env);
         }
     }
 
@@ -234,26 +254,16 @@ impl Sloth {
             return;
         }
         let key = self.stance_key(li);
-        let kept = (r.count as usize).min(STANCES_KEPT);
-        match (0..kept).find(|&k| r.keys[k] == key) {
-            Some(k) if r.visits[k] + 1 >= STUCK_STANCE_CIRCLES => {
-                r.count = 0;
-                self.stuck_stances = r;
-                if self.status == Status::Moving {
-                    self.give_up(env);
-                }
-            }
-            Some(k) => {
-                r.visits[k] += 1;
-                self.stuck_stances = r;
-            }
-            None => {
-                let slot = r.count as usize % STANCES_KEPT;
-                r.keys[slot] = key;
-                r.visits[slot] = 0;
-                r.count = r.count.wrapping_add(1);
-                self.stuck_stances = r;
-            }
+        let circled = visit_stance(
+            &mut r.keys,
+            &mut r.visits,
+            &mut r.count,
+            key,
+            STUCK_STANCE_CIRCLES,
+        );
+        self.stuck_stances = r;
+        if circled && self.status == Status::Moving {
+            self.give_up(env);
         }
     }
 
