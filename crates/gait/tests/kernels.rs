@@ -280,3 +280,65 @@ fn branch_to_trunk_transfer_starts_and_finishes() {
     let head_up = (sloth.body_rot * Vec3::Z).y;
     assert!(head_up > 0.9, "body forward·up = {head_up} on the trunk");
 }
+
+/// A turn's handover step with the grips bunched as a turn leaves them (fore
+/// and hind claws a few cm apart): the body's rotation while the claw swings
+/// is the same whether its arc lifts it clear of the branch or not (formula 6
+/// of the stance it lands in, blended with the turn's heading). Formula 6 of
+/// the arc instead rolled a crowd sloth's body 45° during a 7 cm step, and it
+/// snapped back at the landing 12 mm into its branch.
+#[test]
+fn turn_handover_rotation_ignores_the_claws_lift() {
+    use slothsim_gait::sloth::Turn;
+    let rot_during_swing = |clearance: f32| -> Vec<glam::Quat> {
+        let cfg = LocomotionConfig {
+            swing_clearance_m: clearance,
+            ..LocomotionConfig::profile(Profile::Free)
+        };
+        let (env, preset) = env_for("pole", cfg);
+        let view = env.view();
+        let mut sloth = spawn_at_start(&view, &preset);
+        let fwd = sloth.body_rot * Vec3::Z;
+        let fwd = (fwd - Vec3::Y * fwd.y).normalize();
+        let g = |l: Limb| sloth.limbs[l.index()].grip.point;
+        // Bunched: the hind claws a few cm behind the fore claws on their sides.
+        let (lf, rf) = (g(Limb::LF), g(Limb::RF));
+        sloth.limbs[Limb::RH.index()].grip.point = rf - fwd * 0.12;
+        sloth.limbs[Limb::RH.index()].target = rf - fwd * 0.12;
+        let support = sloth.limbs[Limb::LH.index()].grip.support;
+        let lh = &mut sloth.limbs[Limb::LH.index()];
+        lh.from = rf - fwd * 0.12 + (lf - rf) * 0.5;
+        lh.from_normal = lh.grip.normal;
+        lh.from_support = support;
+        lh.grip.point = lf - fwd * 0.02;
+        lh.phase = LimbPhase::Swinging;
+        lh.swing_t = 0.0;
+        sloth.turn = Some(Turn {
+            support,
+            fwd0: fwd,
+            up: Vec3::Y,
+            sense: 1.0,
+            angle: 2.9,
+            to: std::f32::consts::PI,
+            limb: Limb::LH.index() as u8,
+            handover: true,
+            idle: 0,
+        });
+        let mut rots = Vec::new();
+        while sloth.limbs[Limb::LH.index()].phase == LimbPhase::Swinging {
+            sloth.body_average(&view, DT);
+            rots.push(sloth.body_rot);
+        }
+        rots
+    };
+    let lifted = rot_during_swing(0.05);
+    let flat = rot_during_swing(0.0);
+    assert_eq!(lifted.len(), flat.len());
+    assert!(lifted.len() > 10, "the swing took {} frames", lifted.len());
+    let worst = lifted
+        .iter()
+        .zip(&flat)
+        .map(|(a, b)| a.angle_between(*b))
+        .fold(0.0f32, f32::max);
+    assert!(worst < 1e-4, "the lift turned the body by {worst} rad");
+}

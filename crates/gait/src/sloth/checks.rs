@@ -450,7 +450,9 @@ impl Sloth {
                     tol[li] = STANCE_IK_TOLERANCE;
                 }
             }
-            let (f, up) = self.turn_frame(&turning, &grips, at.unwrap_or(1.0));
+            let mut landed = grips;
+            landed[li] = step.grip;
+            let (f, up) = self.turn_frame(&turning, &landed, at.unwrap_or(1.0));
             let mean = (grips[0] + grips[1] + grips[2] + grips[3]) * 0.25;
             let (pos, rot) = (mean - up * offset.metres, rotation_from(f, up));
             StanceCheck {

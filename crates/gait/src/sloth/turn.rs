@@ -167,15 +167,19 @@ impl Sloth {
         }
     }
 
-    /// The body frame (forward, up) of a turn `tr` for IK targets `t` at
-    /// progress `p` of its turning step: the heading eased from `angle` to
-    /// `to`; a handover blends it into formula 6 of `t` (and the up into
-    /// the branch's plain up) as the step goes.
-    pub(super) fn turn_frame(&self, tr: &Turn, t: &[Vec3; 4], p: f32) -> (Vec3, Vec3) {
+    /// The body frame (forward, up) of a turn `tr` at progress `p` of its
+    /// turning step: the heading eased from `angle` to `to`; a handover
+    /// blends it into formula 6 of `landed`, the grips once the step has
+    /// landed (and the up into the branch's plain up) as the step goes. Not
+    /// formula 6 of the swing arc: a turn bunches the grips (fore and hind
+    /// claws a few cm apart), and a claw's lift on its arc pitched that
+    /// heading by up to 50° (a crowd sloth's body rolled 45° during a 7 cm
+    /// step and snapped back when it landed, 12 mm into its branch).
+    pub(super) fn turn_frame(&self, tr: &Turn, landed: &[Vec3; 4], p: f32) -> (Vec3, Vec3) {
         let e = smoothstep(p);
         let f = tr.fwd(tr.angle + (tr.to - tr.angle) * e);
         let (f, up) = if tr.handover {
-            let f6 = self.formula6_fwd(t);
+            let f6 = self.formula6_fwd(landed);
             let f = (f * (1.0 - e) + f6 * e).normalize_or(f6);
             (f, tr.up * (1.0 - e) + Vec3::Y * e)
         } else {
@@ -185,10 +189,17 @@ impl Sloth {
         (f, up)
     }
 
-    /// [`Self::turn_frame`] of the turn under way, at its step's progress now.
+    /// [`Self::turn_frame`] of the turn under way, at its step's progress
+    /// now, for IK targets `t` (the turning limb lands on its grip).
     pub(super) fn turn_frame_now(&self, t: &[Vec3; 4]) -> Option<(Vec3, Vec3)> {
         let tr = self.turn?;
-        Some(self.turn_frame(&tr, t, self.turn_progress(&tr)))
+        let mut landed = *t;
+        if let Some(l) = self.limbs.get(tr.limb as usize)
+            && l.phase == LimbPhase::Swinging
+        {
+            landed[tr.limb as usize] = l.grip.point;
+        }
+        Some(self.turn_frame(&tr, &landed, self.turn_progress(&tr)))
     }
 
     /// The turning limb's step has landed: the heading is where it ended,
