@@ -694,4 +694,104 @@ mod tests {
         assert!(rejected > 10 * too_long, "{rejected} vs {too_long}");
         assert!(kept > 1000, "{kept}");
     }
+
+    /// The lookahead's range scan farthest first, as it was: every arc length
+    /// from `next_u` back to `last_u`, the first candidate that passes.
+    fn range_has_step_farthest_first(
+        sloth: &Sloth,
+        env: &LocoView<'_>,
+        li: usize,
+        sr: &Search,
+    ) -> bool {
+        let len = env.scene().support(sr.support).length();
+        let mut u = sr.next_u;
+        while (u - sr.last_u) * sr.sdir >= -1e-6 {
+            if (env.cfg.end_margin_m..=len - env.cfg.end_margin_m).contains(&u)
+                && sloth
+                    .candidate(env, &CandidateAt::probe(li, sr, u), &mut 0)
+                    .is_some()
+            {
+                return true;
+            }
+            u -= sr.sdir * 0.02;
+        }
+        false
+    }
+
+    /// [`Sloth::range_has_step`] (nearest first) answers as the farthest-first
+    /// scan on every preset, for sloths walking and with their grips and body
+    /// moved at random, each limb's own range and every neighbour's.
+    #[test]
+    fn range_has_step_nearest_first_matches_farthest_first() {
+        let mut rnd = xorshift(0xa11);
+        let (mut yes, mut no) = (0u32, 0u32);
+        for kind in PresetKind::ALL {
+            let preset = Preset::by_name(kind.name(), None).unwrap();
+            let cfg = LocomotionConfig::profile(Profile::Free);
+            let env =
+                LocoEnv::new(cfg, &Rig::sloth(), TraceScene::new(preset.scene.clone())).unwrap();
+            let view = env.view();
+            let s = preset.start;
+            let hint = SpawnHint {
+                support: s.support,
+                position: s.position,
+                forward: s.forward,
+                body_side: s.body_side,
+            };
+            let g = preset.goal;
+            let mut sloth = Sloth::spawn(&view, &hint, Some((g.support, g.point, g.tolerance)));
+            sloth.goal_side = g.side;
+            let mut batch = TraceBatch::default();
+            for frame in 0..900 {
+                batch.run(&view.query);
+                sloth.step_search(&view, &mut batch);
+                sloth.body_average(&view, 1.0 / 60.0);
+                sloth.solve_limbs(&view);
+                sloth.transitions(&view, 1.0 / 60.0, &mut batch);
+                if frame % 15 != 0 {
+                    continue;
+                }
+                for moved in [0.0, 0.05, 0.2] {
+                    let mut probe = sloth;
+                    for l in &mut probe.limbs {
+                        let d = Vec3::new(rnd() - 0.5, rnd() - 0.5, rnd() - 0.5);
+                        l.grip.point += d * moved;
+                    }
+                    probe.body_pos += Vec3::new(rnd() - 0.5, rnd() - 0.5, rnd() - 0.5) * moved;
+                    for li in 0..4 {
+                        let g = probe.limbs[li].grip;
+                        let mut ranges = vec![probe.own_search(&view, li)];
+                        for &sid in view.adjacency.neighbours(g.support) {
+                            ranges.extend(probe.neighbour_search(&view, li, sid, 0));
+                        }
+                        // Each also stretched over 3 m back: longer than
+                        // the nearest-first buffer (the farthest-first path).
+                        let stretched: Vec<Search> = ranges
+                            .iter()
+                            .map(|sr| Search {
+                                last_u: sr.next_u - sr.sdir * 3.0,
+                                ..*sr
+                            })
+                            .collect();
+                        for sr in ranges.iter().chain(&stretched) {
+                            let want = range_has_step_farthest_first(&probe, &view, li, sr);
+                            assert_eq!(
+                                probe.range_has_step(&view, li, sr),
+                                want,
+                                "{} frame {frame} limb {li} moved {moved}",
+                                kind.name()
+                            );
+                            if want {
+                                yes += 1;
+                            } else {
+                                no += 1;
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        println!("{yes} ranges with a step, {no} without");
+        assert!(yes > 500 && no > 500, "{yes} {no}");
+    }
 }
