@@ -187,6 +187,66 @@ impl Sloth {
         });
     }
 
+    /// Goal mode, walking head first along a branch toward the trunk the
+    /// goal is on, below where the branch meets it, down the branch (its
+    /// root, the end nearer the trunk's axis, lower along the trunk's up
+    /// than the body's point on the branch): the sloth descends tail first
+    /// (issue 24). Head first it would reach the trunk head down: the fore
+    /// limbs take the trunk first and must pitch the body head up from below
+    /// the hind grips (branch_trunk below ~71°: the other fore claw, still
+    /// on the branch, fell 1–5 cm short as the body rose). So it turns
+    /// around on the branch first (`turn.rs`, [`Turn::tail_first`]) and
+    /// walks on tail first: the hind limbs lead onto the trunk below the
+    /// junction, the fore limbs follow, and the body ends head up on the
+    /// trunk, as real sloths come down. Decided by the signs of the geometry
+    /// alone (no slope threshold).
+    ///
+    /// [`Turn::tail_first`]: super::Turn::tail_first
+    pub(super) fn descends_tail_first(&self, env: &LocoView<'_>) -> bool {
+        if self.wander
+            || self.dir <= 0.0
+            || self.transfer.is_some()
+            || self.backoff.is_some()
+            || self.turn.is_some()
+        {
+            return false;
+        }
+        let Some((gs, gp)) = self.goal else {
+            return false;
+        };
+        let scene = env.scene();
+        let sid = self.limbs[0].grip.support;
+        let (t, b) = (scene.support(gs), scene.support(sid));
+        if t.kind != SupportKind::Trunk
+            || b.kind != SupportKind::Branch
+            || !self.grips_only(sid)
+            || !env.adjacency.neighbours(sid).contains(&gs)
+        {
+            return false;
+        }
+        // The branch's root: its end nearer the trunk's axis.
+        let off = |p: Vec3| p.distance(project(t, p).point);
+        let (e0, e1) = (b.nodes[0], b.nodes[b.nodes.len() - 1]);
+        let (root, root_u) = if off(e0) <= off(e1) {
+            (e0, 0.0)
+        } else {
+            (e1, b.length())
+        };
+        // Heading for it: the leading limbs travel toward the root.
+        let g = self.limbs[Limb::LF.index()].grip;
+        if (root_u - g.u) * g.sdir <= 0.0 {
+            return false;
+        }
+        let a = project(t, root);
+        let axis_up = if a.tangent.y >= 0.0 {
+            a.tangent
+        } else {
+            -a.tangent
+        };
+        let here = project(b, self.body_pos).point;
+        (gp - a.point).dot(axis_up) < 0.0 && (root - here).dot(axis_up) < 0.0
+    }
+
     /// Livelock watch of a transfer under way (issue 24), after limb `li`
     /// took a step: a stance it took twice before (since it started, or
     /// last turned toward its target) is taken a third time, each time by
