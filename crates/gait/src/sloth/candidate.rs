@@ -407,16 +407,7 @@ impl Sloth {
         {
             return false;
         }
-        // Tail first onto a trunk (`Sloth::descends_tail_first`): the hind
-        // limbs climb down it no further from the fore limbs than these can
-        // follow from the branch.
-        if p.transfer.is_some_and(|t| t.dir < 0.0)
-            && !limb.is_fore()
-            && p.kind == SupportKind::Trunk
-            && fore_min - proj(approx) > cfg.max_transfer_spread_m
-        {
-            return false;
-        }
+
         // A side's fore and hind grips keep apart along the body: formula 6
         // takes the body's heading from them.
         let same_side = self.limbs[limb.same_side().index()].grip.point;

@@ -52,7 +52,7 @@ const APPROACH_MAX_ANGLE: f32 = std::f32::consts::FRAC_PI_3;
 /// junction), 45–52° pass 60–108°. At 0.08 m, 71–90° pass more angles than
 /// 60°, but a hind grip slipped 5–24 mm as the hang roll ended at angles
 /// that pass at 60° (docs/locomotion.md): hence the cap.
-fn approach_angle(radius: f32) -> f32 {
+pub(super) fn approach_angle(radius: f32) -> f32 {
     (APPROACH_ARC_M / radius.max(1e-3)).min(APPROACH_MAX_ANGLE)
 }
 

@@ -10,6 +10,7 @@ use slothsim_scene::{SupportId, SupportKind};
 
 use crate::path::project;
 
+use super::route::approach_angle;
 use super::{LimbPhase, LocoView, Sloth, Status, mix64};
 
 /// On a trunk reached from a branch the body faces the trunk from this angle
@@ -146,6 +147,14 @@ impl Sloth {
         let bp = project(scene.support(branch), self.body_pos);
         let away = bp.point - a.point;
         let away = (away - a.tangent * a.tangent.dot(away)).normalize_or(fallback);
+        // The same transfer started again (its first limb searches anew):
+        // the stances it took stand.
+        let (dir, stance_keys, stance_visits, stance_count) = match self.transfer {
+            Some(t) if t.to == to && t.trunk == trunk => {
+                (t.dir, t.stance_keys, t.stance_visits, t.stance_count)
+            }
+            _ => (self.dir, [0; STANCES_KEPT], [0; STANCES_KEPT], 0),
+        };
         let side = if onto_trunk {
             let b = bp.tangent;
             let n = a.tangent.cross(b).normalize_or(fallback);
@@ -162,18 +171,19 @@ impl Sloth {
                 -n
             };
             let n2 = (nn - a.tangent * a.tangent.dot(nn)).normalize_or(fallback);
-            (away * TRANSFER_SIDE_ANGLE.cos() + n2 * TRANSFER_SIDE_ANGLE.sin())
-                .normalize_or(fallback)
+            // Tail first (`Sloth::descends_tail_first`) the hips come to the
+            // trunk next to the branch's root and the hind limbs reach around
+            // from there: as far around as trunk → branch climbs up to the
+            // branch (`approach_angle`: the same surface distance from the
+            // branch as 60° on the default trunk), nearer on a thick trunk.
+            let angle = if dir < 0.0 {
+                approach_angle(a.radius)
+            } else {
+                TRANSFER_SIDE_ANGLE
+            };
+            (away * angle.cos() + n2 * angle.sin()).normalize_or(fallback)
         } else {
             off_axis.normalize_or(fallback)
-        };
-        // The same transfer started again (its first limb searches anew):
-        // the stances it took stand.
-        let (dir, stance_keys, stance_visits, stance_count) = match self.transfer {
-            Some(t) if t.to == to && t.trunk == trunk => {
-                (t.dir, t.stance_keys, t.stance_visits, t.stance_count)
-            }
-            _ => (self.dir, [0; STANCES_KEPT], [0; STANCES_KEPT], 0),
         };
         self.transfer = Some(Transfer {
             to,
