@@ -462,7 +462,9 @@ impl Sloth {
         } else {
             -a.tangent
         };
-        if p.transfer.is_some_and(|t| t.dir < 0.0) && !limb.is_fore() && p.kind == SupportKind::Trunk
+        if p.transfer.is_some_and(|t| t.dir < 0.0)
+            && !limb.is_fore()
+            && p.kind == SupportKind::Trunk
         {
             // Tail first (`Sloth::descends_tail_first`): a hind limb takes
             // the trunk (and steps down it) at least the margin below the

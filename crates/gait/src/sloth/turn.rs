@@ -224,7 +224,11 @@ impl Sloth {
         let s = env.scene().support(tr.support);
         for l in &mut self.limbs {
             let a = axis_at(s, l.grip.u);
-            l.grip.sdir = if a.tangent.dot(travel) >= 0.0 { 1.0 } else { -1.0 };
+            l.grip.sdir = if a.tangent.dot(travel) >= 0.0 {
+                1.0
+            } else {
+                -1.0
+            };
         }
         self.dir = dir;
         self.turns = self.turns.wrapping_add(1);
