@@ -541,9 +541,14 @@ impl Sloth {
     fn hang_roll(&self, env: &LocoView<'_>, fwd: Vec3, mean: Vec3, metres: f32) -> f32 {
         // A transfer only set up by a search (no limb on its target yet)
         // rolls nothing: one that is not taken leaves no jump behind.
-        let under_way = self
-            .transfer
-            .filter(|tr| self.limbs.iter().any(|l| l.grip.support == tr.to));
+        // Nor does a tail-first one onto a trunk (`Sloth::descends_tail_first`):
+        // the body heads out from the trunk there all along, so it would roll
+        // the moment the first hind limb lifts off toward the trunk, a jump
+        // the step's checks (drawn before it) never saw.
+        let under_way = self.transfer.filter(|tr| {
+            self.limbs.iter().any(|l| l.grip.support == tr.to)
+                && !(tr.to == tr.trunk && tr.dir < 0.0)
+        });
         let trunk = match (under_way, self.hang_trunk) {
             (Some(tr), _) => tr.trunk,
             (None, Some(trunk)) if !self.fore_on_trunk(env) => trunk,

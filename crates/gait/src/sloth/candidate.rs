@@ -437,6 +437,7 @@ impl Sloth {
         {
             return false;
         }
+
         // A side's fore and hind grips keep apart along the body: formula 6
         // takes the body's heading from them.
         let same_side = self.limbs[limb.same_side().index()].grip.point;
@@ -486,12 +487,26 @@ impl Sloth {
     fn keeps_head_up(&self, env: &LocoView<'_>, p: &Placement) -> bool {
         let (limb, approx, a) = (p.limb, p.grip, p.axis);
         let margin = env.cfg.head_up_margin_m;
-        if p.transfer.is_some() && limb.is_fore() && p.kind == SupportKind::Trunk {
-            let axis_up = if a.tangent.y >= 0.0 {
-                a.tangent
-            } else {
-                -a.tangent
-            };
+        let axis_up = if a.tangent.y >= 0.0 {
+            a.tangent
+        } else {
+            -a.tangent
+        };
+        if p.transfer.is_some_and(|t| t.dir < 0.0)
+            && !limb.is_fore()
+            && p.kind == SupportKind::Trunk
+        {
+            // Tail first (`Sloth::descends_tail_first`): a hind limb takes
+            // the trunk (and steps down it) at least the margin below the
+            // fore grips.
+            let fore_bottom = [Limb::LF, Limb::RF]
+                .map(|f| self.limbs[f.index()].grip.point.dot(axis_up))
+                .into_iter()
+                .fold(f32::INFINITY, f32::min);
+            if approx.dot(axis_up) > fore_bottom - margin {
+                return false;
+            }
+        } else if p.transfer.is_some() && limb.is_fore() && p.kind == SupportKind::Trunk {
             let hind_top = [Limb::LH, Limb::RH]
                 .map(|h| self.limbs[h.index()].grip.point.dot(axis_up))
                 .into_iter()

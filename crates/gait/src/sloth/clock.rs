@@ -88,6 +88,12 @@ impl Sloth {
                 }
                 continue;
             }
+            // Down a branch to a trunk the goal is below the junction on:
+            // turn around first, then on tail first (see
+            // `Sloth::descends_tail_first`).
+            if self.descends_tail_first(env) && self.may_turn_around(env, false) {
+                self.start_turn(true);
+            }
             if self.turn.is_some() {
                 // Turning around: the limb's step is the turn's.
                 self.turn_search(env, li);

@@ -52,7 +52,7 @@ const APPROACH_MAX_ANGLE: f32 = std::f32::consts::FRAC_PI_3;
 /// junction), 45–52° pass 60–108°. At 0.08 m, 71–90° pass more angles than
 /// 60°, but a hind grip slipped 5–24 mm as the hang roll ended at angles
 /// that pass at 60° (docs/locomotion.md): hence the cap.
-fn approach_angle(radius: f32) -> f32 {
+pub(super) fn approach_angle(radius: f32) -> f32 {
     (APPROACH_ARC_M / radius.max(1e-3)).min(APPROACH_MAX_ANGLE)
 }
 
@@ -537,12 +537,15 @@ impl Sloth {
     /// that continues the current travel.
     fn choose_sdir(&self, env: &LocoView<'_>, sid: SupportId, tangent: Vec3) -> f32 {
         let s = env.scene().support(sid);
-        // Onto a trunk only head up: the limbs climb it until all four are across.
-        if self
+        // Onto a trunk only head up: the limbs climb it until all four are
+        // across. A tail-first transfer (`Sloth::descends_tail_first`): the
+        // body still faces up, and the limbs travel down it.
+        if let Some(t) = self
             .transfer
-            .is_some_and(|t| t.to == sid && s.kind == SupportKind::Trunk)
+            .filter(|t| t.to == sid && s.kind == SupportKind::Trunk)
         {
-            return if tangent.y >= 0.0 { 1.0 } else { -1.0 };
+            let up = if tangent.y >= 0.0 { 1.0 } else { -1.0 };
+            return if t.dir < 0.0 { up * self.dir } else { up };
         }
         // A support other limbs already hold: the way they travel on it. The
         // body's forward a grip implies (its sdir × dir) is the same for all

@@ -311,7 +311,7 @@ impl Sloth {
         if (stalled && self.may_turn_around(env, false))
             || (self.goal_behind() && self.may_turn_around(env, true))
         {
-            self.start_turn();
+            self.start_turn(false);
         } else if self.wander && self.stalled_turns < MAX_STALLED_TURNS {
             self.turn_back();
         } else if self.replan(env) {
@@ -380,13 +380,17 @@ impl Sloth {
         if scan(&self.own_search(env, li)) {
             return true;
         }
-        let fore_supports = [
-            self.limbs[Limb::LF.index()].grip.support,
-            self.limbs[Limb::RF.index()].grip.support,
-        ];
-        let fore_on_cur = fore_supports.contains(&g.support);
+        // The leading limbs (fore head first, hind tail first) change
+        // support first; the others follow onto a support they hold.
+        let lead = if self.dir > 0.0 {
+            [Limb::LF, Limb::RF]
+        } else {
+            [Limb::LH, Limb::RH]
+        };
+        let lead_supports = lead.map(|l| self.limbs[l.index()].grip.support);
+        let lead_on_cur = lead_supports.contains(&g.support);
         env.adjacency.neighbours(g.support).iter().any(|&sid| {
-            (limb.is_fore() || (fore_supports.contains(&sid) && !fore_on_cur))
+            (self.leads(limb) || (lead_supports.contains(&sid) && !lead_on_cur))
                 && self
                     .neighbour_search(env, li, sid, 0)
                     .is_some_and(|sr| scan(&sr))

@@ -10,6 +10,7 @@ use slothsim_scene::{SupportId, SupportKind};
 
 use crate::path::project;
 
+use super::route::approach_angle;
 use super::{LimbPhase, LocoView, Sloth, Status, mix64};
 
 /// On a trunk reached from a branch the body faces the trunk from this angle
@@ -146,6 +147,14 @@ impl Sloth {
         let bp = project(scene.support(branch), self.body_pos);
         let away = bp.point - a.point;
         let away = (away - a.tangent * a.tangent.dot(away)).normalize_or(fallback);
+        // The same transfer started again (its first limb searches anew):
+        // the stances it took stand.
+        let (dir, stance_keys, stance_visits, stance_count) = match self.transfer {
+            Some(t) if t.to == to && t.trunk == trunk => {
+                (t.dir, t.stance_keys, t.stance_visits, t.stance_count)
+            }
+            _ => (self.dir, [0; STANCES_KEPT], [0; STANCES_KEPT], 0),
+        };
         let side = if onto_trunk {
             let b = bp.tangent;
             let n = a.tangent.cross(b).normalize_or(fallback);
@@ -162,18 +171,19 @@ impl Sloth {
                 -n
             };
             let n2 = (nn - a.tangent * a.tangent.dot(nn)).normalize_or(fallback);
-            (away * TRANSFER_SIDE_ANGLE.cos() + n2 * TRANSFER_SIDE_ANGLE.sin())
-                .normalize_or(fallback)
+            // Tail first (`Sloth::descends_tail_first`) the hips come to the
+            // trunk next to the branch's root and the hind limbs reach around
+            // from there: as far around as trunk → branch climbs up to the
+            // branch (`approach_angle`: the same surface distance from the
+            // branch as 60° on the default trunk), nearer on a thick trunk.
+            let angle = if dir < 0.0 {
+                approach_angle(a.radius)
+            } else {
+                TRANSFER_SIDE_ANGLE
+            };
+            (away * angle.cos() + n2 * angle.sin()).normalize_or(fallback)
         } else {
             off_axis.normalize_or(fallback)
-        };
-        // The same transfer started again (its first limb searches anew):
-        // the stances it took stand.
-        let (dir, stance_keys, stance_visits, stance_count) = match self.transfer {
-            Some(t) if t.to == to && t.trunk == trunk => {
-                (t.dir, t.stance_keys, t.stance_visits, t.stance_count)
-            }
-            _ => (self.dir, [0; STANCES_KEPT], [0; STANCES_KEPT], 0),
         };
         self.transfer = Some(Transfer {
             to,
@@ -185,6 +195,66 @@ impl Sloth {
             stance_visits,
             stance_count,
         });
+    }
+
+    /// Goal mode, walking head first along a branch toward the trunk the
+    /// goal is on, below where the branch meets it, down the branch (its
+    /// root, the end nearer the trunk's axis, lower along the trunk's up
+    /// than the body's point on the branch): the sloth descends tail first
+    /// (issue 24). Head first it would reach the trunk head down: the fore
+    /// limbs take the trunk first and must pitch the body head up from below
+    /// the hind grips (branch_trunk below ~71°: the other fore claw, still
+    /// on the branch, fell 1–5 cm short as the body rose). So it turns
+    /// around on the branch first (`turn.rs`, [`Turn::tail_first`]) and
+    /// walks on tail first: the hind limbs lead onto the trunk below the
+    /// junction, the fore limbs follow, and the body ends head up on the
+    /// trunk, as real sloths come down. Decided by the signs of the geometry
+    /// alone (no slope threshold).
+    ///
+    /// [`Turn::tail_first`]: super::Turn::tail_first
+    pub(super) fn descends_tail_first(&self, env: &LocoView<'_>) -> bool {
+        if self.wander
+            || self.dir <= 0.0
+            || self.transfer.is_some()
+            || self.backoff.is_some()
+            || self.turn.is_some()
+        {
+            return false;
+        }
+        let Some((gs, gp)) = self.goal else {
+            return false;
+        };
+        let scene = env.scene();
+        let sid = self.limbs[0].grip.support;
+        let (t, b) = (scene.support(gs), scene.support(sid));
+        if t.kind != SupportKind::Trunk
+            || b.kind != SupportKind::Branch
+            || !self.grips_only(sid)
+            || !env.adjacency.neighbours(sid).contains(&gs)
+        {
+            return false;
+        }
+        // The branch's root: its end nearer the trunk's axis.
+        let off = |p: Vec3| p.distance(project(t, p).point);
+        let (e0, e1) = (b.nodes[0], b.nodes[b.nodes.len() - 1]);
+        let (root, root_u) = if off(e0) <= off(e1) {
+            (e0, 0.0)
+        } else {
+            (e1, b.length())
+        };
+        // Heading for it: the leading limbs travel toward the root.
+        let g = self.limbs[Limb::LF.index()].grip;
+        if (root_u - g.u) * g.sdir <= 0.0 {
+            return false;
+        }
+        let a = project(t, root);
+        let axis_up = if a.tangent.y >= 0.0 {
+            a.tangent
+        } else {
+            -a.tangent
+        };
+        let here = project(b, self.body_pos).point;
+        (gp - a.point).dot(axis_up) < 0.0 && (root - here).dot(axis_up) < 0.0
     }
 
     /// Livelock watch of a transfer under way (issue 24), after limb `li`

@@ -70,6 +70,11 @@ pub struct Turn {
     pub handover: bool,
     /// Steps in a row that did not advance the turn.
     pub idle: u8,
+    /// The turn readies a tail-first descent onto a trunk (see
+    /// `Sloth::descends_tail_first`): once it is over the sloth walks on
+    /// tail first, the way it came, instead of head first.
+    #[serde(default)]
+    pub tail_first: bool,
 }
 
 /// A turning step to check: the limb, its grip (point, normal), the heading
@@ -129,8 +134,9 @@ impl Sloth {
         })
     }
 
-    /// Starts a turn around from the current stance (see the module docs).
-    pub(super) fn start_turn(&mut self) {
+    /// Starts a turn around from the current stance (see the module docs);
+    /// `tail_first`: see [`Turn::tail_first`].
+    pub(super) fn start_turn(&mut self, tail_first: bool) {
         // A transfer only set up (see `may_turn_around`) is given up.
         self.transfer = None;
         let t = self.limbs.map(|l| l.target);
@@ -154,6 +160,7 @@ impl Sloth {
             limb: NO_LIMB,
             handover: false,
             idle: 0,
+            tail_first,
         });
         self.failed_searches = 0;
     }
@@ -204,7 +211,8 @@ impl Sloth {
 
     /// The turning limb's step has landed: the heading is where it ended,
     /// and after the handover the turn is over: the sloth walks on head first
-    /// the way it now faces.
+    /// the way it now faces (or, readying a tail-first descent, tail first
+    /// the way it came).
     pub(super) fn finish_turn_step(&mut self, env: &LocoView<'_>) {
         let Some(mut tr) = self.turn else {
             return;
@@ -222,13 +230,18 @@ impl Sloth {
             return;
         }
         self.turn = None;
-        let fwd = self.body_rot * Vec3::Z;
+        let dir = if tr.tail_first { -1.0 } else { 1.0 };
+        let travel = self.body_rot * Vec3::Z * dir;
         let s = env.scene().support(tr.support);
         for l in &mut self.limbs {
             let a = axis_at(s, l.grip.u);
-            l.grip.sdir = if a.tangent.dot(fwd) >= 0.0 { 1.0 } else { -1.0 };
+            l.grip.sdir = if a.tangent.dot(travel) >= 0.0 {
+                1.0
+            } else {
+                -1.0
+            };
         }
-        self.dir = 1.0;
+        self.dir = dir;
         self.turns = self.turns.wrapping_add(1);
         self.failed_searches = 0;
         self.stalled_turns = 0;
