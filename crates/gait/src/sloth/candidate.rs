@@ -213,15 +213,24 @@ impl Sloth {
             _ => self.body_pos - a.point,
         };
         let transfer_step = transfer.is_some() && sid != self.limbs[li].grip.support;
+        let grip_angle = env.cfg.trunk_grip_angle_deg.to_radians();
         // Body forward is the travel direction × dir (tail first when dir < 0).
-        let (f, up) = support_frame(s.kind, a.tangent * (sdir * self.dir), a.tangent, body_side);
-        let out = grip_out(
-            s.kind,
-            limb,
-            f,
-            up,
-            env.cfg.trunk_grip_angle_deg.to_radians(),
-        );
+        let frame_out = |side: Vec3| {
+            let (f, up) = support_frame(s.kind, a.tangent * (sdir * self.dir), a.tangent, side);
+            (f, up, grip_out(s.kind, limb, f, up, grip_angle))
+        };
+        let (mut f, mut up, mut out) = frame_out(body_side);
+        // Leaving a trunk for a branch, a hind limb's grip on it goes around
+        // the side the hips are on where that lies nearer the limb's root
+        // (see `Sloth::hips_side`).
+        if let Some(hips) = self.hips_side(env, limb, sid) {
+            let (f2, up2, out2) = frame_out(hips - a.point);
+            let root = self.limbs[li].root;
+            let from_root = |o: Vec3| (a.point + o * a.radius).distance(root);
+            if from_root(out2) < from_root(out) {
+                (f, up, out) = (f2, up2, out2);
+            }
+        }
         // On the trunk being transferred to, steps go up its axis (head up)
         // whichever way the body still faces.
         // So do a fore limb's steps along the branch being transferred to:
@@ -237,13 +246,7 @@ impl Sloth {
         // transfer_to_branch's hind pair: the partner steps to the mirror grip
         // on the branch's other side at the same arc length.
         let pair = self.hind_pair(li, sid).map(|pi| {
-            let out2 = grip_out(
-                s.kind,
-                Limb::ALL[pi],
-                f,
-                up,
-                env.cfg.trunk_grip_angle_deg.to_radians(),
-            );
+            let out2 = grip_out(s.kind, Limb::ALL[pi], f, up, grip_angle);
             (pi, a.point + out2 * a.radius, out2)
         });
         Placement {
@@ -289,6 +292,23 @@ impl Sloth {
         let cur = self.limbs[at.limb].grip.point;
         a.point.distance(cur) - a.radius * (1.0 + SURELY_FAR_SLACK_M)
             > self.max_step_at(env, at) + SURELY_FAR_SLACK_M
+    }
+
+    /// `transfer_to_branch`: where the hips are, for hind limb `limb`'s
+    /// step on the trunk `sid` the transfer leaves. A grip on a trunk sits
+    /// around the side the body faces it from (formula 3), and facing the
+    /// trunk head up the hips are on that side, below the body. With the
+    /// fore limbs out on the branch the body heads out along it, yawed on
+    /// the trunk's surface, and the hips swing round the trunk away from
+    /// the branch: a hind grip placed around the body's side was left on the
+    /// branch's side of the trunk, 0.38 m across from its root, at its
+    /// reach's edge, and every step of the others (the fore limbs out along
+    /// the branch, the other hind limb up the trunk) would stretch it
+    /// further (trunk_branch at 135°, 0.2 m: the transfer stalled there).
+    fn hips_side(&self, env: &LocoView<'_>, limb: Limb, sid: SupportId) -> Option<Vec3> {
+        let t = self.transfer?;
+        (!limb.is_fore() && t.trunk == sid && t.to != sid)
+            .then(|| self.body_pos + self.body_rot * env.rig.hips_ms)
     }
 
     /// Stage 2: the step's length along the travel direction within

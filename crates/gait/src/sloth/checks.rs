@@ -233,12 +233,20 @@ impl Sloth {
             std::array::from_fn(|k| stance_at(SWING_CHECKS.get(k).copied()));
         // A step between a branch and a trunk rolls the body fast: between
         // the IK checks' arc points it could enter a support the points do
-        // not show, so the body is also checked at every 5 % of the arc.
+        // not show, so the body is also checked at every 5 % of the arc. So
+        // is a step on the branch while the body still hangs rolled clear of
+        // the trunk it left (`Sloth::hang_trunk`): close to that trunk the
+        // roll changes fast with the heading (trunk_branch at 146°, 0.08 m,
+        // with the hind grips around the hips' side: the first hind step
+        // out along the branch after the transfer passed its arc points'
+        // checks, and the judge found the body 11 cm in the trunk during it).
         let scene = env.scene();
         let kind_change = steps.iter().any(|&(li, ..)| {
             scene.support(self.limbs[li].grip.support).kind != scene.support(support).kind
         });
-        if kind_change && self.arc_body_penetrates(env, &mut stance_at) {
+        if (kind_change || self.hang_trunk.is_some())
+            && self.arc_body_penetrates(env, &mut stance_at)
+        {
             return false;
         }
         // Branch → trunk: a step after which both fore limbs hold the trunk
