@@ -323,6 +323,7 @@ fn turn_handover_rotation_ignores_the_claws_lift() {
             limb: Limb::LH.index() as u8,
             handover: true,
             idle: 0,
+            tail_first: false,
         });
         let mut rots = Vec::new();
         while sloth.limbs[Limb::LH.index()].phase == LimbPhase::Swinging {
