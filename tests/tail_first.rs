@@ -10,11 +10,10 @@
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
 use rayon::prelude::*;
-use slothsim::gait::LocomotionConfig;
-use slothsim::observe::Tolerances;
-use slothsim::rig::Rig;
 use slothsim::scene::{Preset, PresetKind};
-use slothsim::sim::{ScenarioSpec, TrunkVariant, run_scenario};
+use slothsim::sim::TrunkVariant;
+
+mod common;
 
 /// The radii the matrix sweeps the transfers at (m).
 const RADII: [f32; 3] = [0.08, 0.15, 0.2];
@@ -29,22 +28,12 @@ const SEED: u64 = 2411;
 /// passed), and a failure too where a fore limb took the trunk before
 /// both hind limbs held it (the descent was not tail first).
 fn run(angle: f32, radius: f32) -> Vec<String> {
-    let spec = ScenarioSpec {
-        preset: Preset::with_trunk_radius(PresetKind::BranchTrunk, Some(angle), Some(radius))
-            .unwrap(),
-        variant: TrunkVariant::ToTrunk,
-        cfg: LocomotionConfig::default(),
-        dt: 1.0 / 60.0,
-        time_limit_s: None,
-        tolerances: Tolerances::default(),
-    };
-    let preset = &spec.preset;
-    let trunk = preset.goal.support;
-    let r = run_scenario(&spec, &Rig::sloth()).unwrap();
-    let mut failures = r.verdict.failures.clone();
-    if !r.judge.goal_reached && failures.is_empty() {
-        failures.push("goal not reached".into());
-    }
+    let trunk = Preset::with_trunk_radius(PresetKind::BranchTrunk, Some(angle), Some(radius))
+        .unwrap()
+        .goal
+        .support;
+    let r = common::run_transfer(TrunkVariant::ToTrunk, angle, radius);
+    let mut failures = common::transfer_failures(&r);
     // Limbs 0, 1 fore (LF, RF), 2, 3 hind (LH, RH).
     let first_fore = r
         .observations

@@ -13,11 +13,9 @@
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
 use rayon::prelude::*;
-use slothsim::gait::LocomotionConfig;
-use slothsim::observe::Tolerances;
-use slothsim::rig::Rig;
-use slothsim::scene::{Preset, PresetKind};
-use slothsim::sim::{ScenarioSpec, TrunkVariant, run_scenario};
+use slothsim::sim::TrunkVariant;
+
+mod common;
 
 /// Draws per transfer scenario per run.
 const DRAWS: usize = 42;
@@ -47,21 +45,7 @@ fn draws(seed: u64) -> Vec<Draw> {
 
 /// The failures of a drawn case (empty: it passed).
 fn run((variant, angle, radius): Draw) -> Vec<String> {
-    let spec = ScenarioSpec {
-        preset: Preset::with_trunk_radius(PresetKind::BranchTrunk, Some(angle), Some(radius))
-            .unwrap(),
-        variant,
-        cfg: LocomotionConfig::default(),
-        dt: 1.0 / 60.0,
-        time_limit_s: None,
-        tolerances: Tolerances::default(),
-    };
-    let r = run_scenario(&spec, &Rig::sloth()).unwrap();
-    let mut failures = r.verdict.failures.clone();
-    if !r.judge.goal_reached && failures.is_empty() {
-        failures.push("goal not reached".into());
-    }
-    failures
+    common::transfer_failures(&common::run_transfer(variant, angle, radius))
 }
 
 /// Every draw's failures, in draw order.

@@ -14,11 +14,9 @@
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
 use rayon::prelude::*;
-use slothsim::gait::LocomotionConfig;
-use slothsim::observe::Tolerances;
-use slothsim::rig::Rig;
-use slothsim::scene::{Preset, PresetKind};
-use slothsim::sim::{ScenarioSpec, TrunkVariant, run_scenario};
+use slothsim::sim::TrunkVariant;
+
+mod common;
 
 /// The trunk's radius (m).
 const RADIUS: f32 = 0.2;
@@ -34,21 +32,8 @@ const SEED: u64 = 2024;
 
 /// The failures of the to-branch run at `angle` (empty: it passed).
 fn run(angle: f32) -> Vec<String> {
-    let spec = ScenarioSpec {
-        preset: Preset::with_trunk_radius(PresetKind::BranchTrunk, Some(angle), Some(RADIUS))
-            .unwrap(),
-        variant: TrunkVariant::ToBranch,
-        cfg: LocomotionConfig::default(),
-        dt: 1.0 / 60.0,
-        time_limit_s: None,
-        tolerances: Tolerances::default(),
-    };
-    let r = run_scenario(&spec, &Rig::sloth()).unwrap();
-    let mut failures = r.verdict.failures.clone();
-    if !r.judge.goal_reached && failures.is_empty() {
-        failures.push("goal not reached".into());
-    }
-    failures
+    let r = common::run_transfer(TrunkVariant::ToBranch, angle, RADIUS);
+    common::transfer_failures(&r)
 }
 
 #[test]

@@ -40,3 +40,36 @@ pub fn pole_world(profile: Profile) -> (World, Entity) {
     let e = spawn_sloth(&mut world, 0, &hint, None);
     (world, e)
 }
+
+/// One `branch_trunk` run (`variant`, branch angle in degrees, trunk radius
+/// in metres) as the matrix runs its cases: free profile, 60 Hz, the
+/// scenario's own time limit and the default tolerances.
+#[allow(dead_code)]
+pub fn run_transfer(
+    variant: slothsim::sim::TrunkVariant,
+    angle: f32,
+    radius: f32,
+) -> slothsim::sim::ScenarioResult {
+    use slothsim::scene::PresetKind;
+    let spec = slothsim::sim::ScenarioSpec {
+        preset: Preset::with_trunk_radius(PresetKind::BranchTrunk, Some(angle), Some(radius))
+            .unwrap(),
+        variant,
+        cfg: LocomotionConfig::default(),
+        dt: 1.0 / 60.0,
+        time_limit_s: None,
+        tolerances: slothsim::observe::Tolerances::default(),
+    };
+    slothsim::sim::run_scenario(&spec, &Rig::sloth()).unwrap()
+}
+
+/// The judge's failures of run `r`, and "goal not reached" where the goal
+/// was missed with every measure in tolerance (empty: it passed).
+#[allow(dead_code)]
+pub fn transfer_failures(r: &slothsim::sim::ScenarioResult) -> Vec<String> {
+    let mut failures = r.verdict.failures.clone();
+    if !r.judge.goal_reached && failures.is_empty() {
+        failures.push("goal not reached".into());
+    }
+    failures
+}

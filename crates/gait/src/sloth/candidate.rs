@@ -625,20 +625,9 @@ impl Sloth {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::sloth::SpawnHint;
-    use crate::{LocoEnv, LocomotionConfig, Profile, TraceBatch};
-    use slothsim_rig::Rig;
-    use slothsim_scene::{Preset, PresetKind, TraceScene};
-
-    /// Uniform numbers in 0..1 from an xorshift generator seeded with `s`.
-    fn xorshift(mut s: u64) -> impl FnMut() -> f32 {
-        move || {
-            s ^= s << 13;
-            s ^= s >> 7;
-            s ^= s << 17;
-            (s >> 40) as f32 / (1u64 << 24) as f32
-        }
-    }
+    use crate::TraceBatch;
+    use crate::sloth::test_util::{preset_sloth, tick, xorshift};
+    use slothsim_scene::PresetKind;
 
     /// [`Sloth::surely_too_far`] against the placement it spares: on every
     /// preset, for sloths walking (transfers included) and with their grips
@@ -651,28 +640,11 @@ mod tests {
         let mut rnd = xorshift(0x5107);
         let (mut rejected, mut too_long, mut kept) = (0u64, 0u64, 0u64);
         for kind in PresetKind::ALL {
-            let preset = Preset::by_name(kind.name(), None).unwrap();
-            let cfg = LocomotionConfig::profile(Profile::Free);
-            let env =
-                LocoEnv::new(cfg, &Rig::sloth(), TraceScene::new(preset.scene.clone())).unwrap();
+            let (env, mut sloth) = preset_sloth(kind);
             let view = env.view();
-            let s = preset.start;
-            let hint = SpawnHint {
-                support: s.support,
-                position: s.position,
-                forward: s.forward,
-                body_side: s.body_side,
-            };
-            let g = preset.goal;
-            let mut sloth = Sloth::spawn(&view, &hint, Some((g.support, g.point, g.tolerance)));
-            sloth.goal_side = g.side;
             let mut batch = TraceBatch::default();
             for frame in 0..900 {
-                batch.run(&view.query);
-                sloth.step_search(&view, &mut batch);
-                sloth.body_average(&view, 1.0 / 60.0);
-                sloth.solve_limbs(&view);
-                sloth.transitions(&view, 1.0 / 60.0, &mut batch);
+                tick(&mut sloth, &view, &mut batch);
                 if frame % 30 != 0 {
                     continue;
                 }
@@ -761,28 +733,11 @@ mod tests {
         let mut rnd = xorshift(0xa11);
         let (mut yes, mut no) = (0u32, 0u32);
         for kind in PresetKind::ALL {
-            let preset = Preset::by_name(kind.name(), None).unwrap();
-            let cfg = LocomotionConfig::profile(Profile::Free);
-            let env =
-                LocoEnv::new(cfg, &Rig::sloth(), TraceScene::new(preset.scene.clone())).unwrap();
+            let (env, mut sloth) = preset_sloth(kind);
             let view = env.view();
-            let s = preset.start;
-            let hint = SpawnHint {
-                support: s.support,
-                position: s.position,
-                forward: s.forward,
-                body_side: s.body_side,
-            };
-            let g = preset.goal;
-            let mut sloth = Sloth::spawn(&view, &hint, Some((g.support, g.point, g.tolerance)));
-            sloth.goal_side = g.side;
             let mut batch = TraceBatch::default();
             for frame in 0..900 {
-                batch.run(&view.query);
-                sloth.step_search(&view, &mut batch);
-                sloth.body_average(&view, 1.0 / 60.0);
-                sloth.solve_limbs(&view);
-                sloth.transitions(&view, 1.0 / 60.0, &mut batch);
+                tick(&mut sloth, &view, &mut batch);
                 if frame % 15 != 0 {
                     continue;
                 }

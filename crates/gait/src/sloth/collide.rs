@@ -305,16 +305,7 @@ impl Sloth {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// Uniform numbers in 0..1 from an xorshift generator seeded with `s`.
-    fn xorshift(mut s: u64) -> impl FnMut() -> f32 {
-        move || {
-            s ^= s << 13;
-            s ^= s >> 7;
-            s ^= s << 17;
-            (s >> 40) as f32 / (1u64 << 24) as f32
-        }
-    }
+    use crate::sloth::test_util::xorshift;
 
     /// A random polyline support of `n` nodes (radii 0.02–0.32 m), its
     /// segment chunks and its nodes.

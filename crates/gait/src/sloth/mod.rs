@@ -35,6 +35,8 @@ mod route;
 mod search;
 mod solve;
 mod spawn;
+#[cfg(test)]
+mod test_util;
 mod transfer;
 mod turn;
 

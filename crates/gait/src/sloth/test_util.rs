@@ -1,0 +1,45 @@
+//! Set-up shared by the unit tests of the sloth's modules.
+
+use slothsim_rig::Rig;
+use slothsim_scene::{Preset, PresetKind, TraceScene};
+
+use super::{Sloth, SpawnHint, TraceBatch};
+use crate::{LocoEnv, LocoView, LocomotionConfig, Profile};
+
+/// Uniform numbers in 0..1 from an xorshift generator seeded with `s`.
+pub(crate) fn xorshift(mut s: u64) -> impl FnMut() -> f32 {
+    move || {
+        s ^= s << 13;
+        s ^= s >> 7;
+        s ^= s << 17;
+        (s >> 40) as f32 / (1u64 << 24) as f32
+    }
+}
+
+/// Preset `kind`'s environment (free profile) and a sloth spawned at its
+/// start, walking toward its goal.
+pub(crate) fn preset_sloth(kind: PresetKind) -> (LocoEnv, Sloth) {
+    let preset = Preset::by_name(kind.name(), None).unwrap();
+    let cfg = LocomotionConfig::profile(Profile::Free);
+    let env = LocoEnv::new(cfg, &Rig::sloth(), TraceScene::new(preset.scene.clone())).unwrap();
+    let s = preset.start;
+    let hint = SpawnHint {
+        support: s.support,
+        position: s.position,
+        forward: s.forward,
+        body_side: s.body_side,
+    };
+    let g = preset.goal;
+    let mut sloth = Sloth::spawn(&env.view(), &hint, Some((g.support, g.point, g.tolerance)));
+    sloth.goal_side = g.side;
+    (env, sloth)
+}
+
+/// One 60 Hz tick of `sloth`, the stages in the sim's order.
+pub(crate) fn tick(sloth: &mut Sloth, view: &LocoView<'_>, batch: &mut TraceBatch) {
+    batch.run(&view.query);
+    sloth.step_search(view, batch);
+    sloth.body_average(view, 1.0 / 60.0);
+    sloth.solve_limbs(view);
+    sloth.transitions(view, 1.0 / 60.0, batch);
+}
