@@ -39,7 +39,11 @@ fn trunk_to_branch_into_the_wedge() {
         .flat_map(|&r| std::iter::repeat_n(r, DRAWS))
         .map(|r| {
             let a: f32 = rng.random_range(ANGLES);
-            let a = if (a * 2.0).fract() == 0.0 { a + 0.01 } else { a };
+            let a = if (a * 2.0).fract() == 0.0 {
+                a + 0.01
+            } else {
+                a
+            };
             (a, r)
         })
         .collect();
