@@ -549,9 +549,12 @@ impl Sloth {
             self.limbs.iter().any(|l| l.grip.support == tr.to)
                 && !(tr.to == tr.trunk && tr.dir < 0.0)
         });
-        let trunk = match (under_way, self.hang_trunk) {
-            (Some(tr), _) => tr.trunk,
-            (None, Some(trunk)) if !self.fore_on_trunk(env) => trunk,
+        // Leaving the trunk for a branch (a transfer onto a branch, or
+        // still rolled after one): the trunk is the one the branch leaves,
+        // behind the body at the branch's root (see the roll's side below).
+        let (trunk, leaving) = match (under_way, self.hang_trunk) {
+            (Some(tr), _) => (tr.trunk, tr.to != tr.trunk),
+            (None, Some(trunk)) if !self.fore_on_trunk(env) => (trunk, true),
             _ => return 0.0,
         };
         let scene = env.scene();
@@ -588,7 +591,18 @@ impl Sloth {
         let need = heading_out * ((depth + clearance) / clearance).clamp(0.0, 1.0);
         // Away from a trunk off to a side of the branch; toward the body's
         // own side of it where the trunk is below it (the fork), passing
-        // through no roll in between (continuous).
+        // through no roll in between (continuous). A trunk the body leaves
+        // for a branch lies behind it, at the branch's root, and the body
+        // clears it on either side: it keeps its own side. Measured as a
+        // side, that trunk swung with the heading's yaw (the cosine of its
+        // direction from the paws: 3.7° of yaw made a fifth of the way to
+        // "beside") and halved the roll where it mattered most, below a
+        // branch leaving the trunk steeply downward (trunk_branch at 150.8°,
+        // 0.15 m: the hips hung 4.5 cm in the trunk, so every step out
+        // along the branch was refused and the sloth stalled).
+        if leaving {
+            return need * own_side;
+        }
         let trunk_side =
             (lateral.dot((mean - a.point).normalize_or_zero()) / HANG_TRUNK_SIDE).clamp(-1.0, 1.0);
         need * (trunk_side + (1.0 - trunk_side.abs()) * own_side)
