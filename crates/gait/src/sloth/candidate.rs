@@ -267,6 +267,31 @@ impl Sloth {
         }
     }
 
+    /// How far limb `li` would step from its grip onto the trunk `trunk`
+    /// at the axis point nearest that grip, placed as the transfer under way
+    /// places it (the transfer's side choice: `Sloth::begin_transfer`).
+    pub(super) fn trunk_grip_distance(
+        &self,
+        env: &LocoView<'_>,
+        li: usize,
+        trunk: SupportId,
+    ) -> f32 {
+        let g = self.limbs[li].grip;
+        let a = crate::path::project(env.scene().support(trunk), g.point);
+        let sdir = self
+            .neighbour_search(env, li, trunk, 0)
+            .map_or(1.0, |sr| sr.sdir);
+        let at = CandidateAt {
+            limb: li,
+            support: trunk,
+            u: a.u,
+            sdir,
+            retreat: false,
+            may_commit_lift: false,
+        };
+        self.place(env, &at, a).grip.distance(g.point)
+    }
+
     /// The longest step to `at` ([`Placement::max_step`]): a transfer step
     /// (onto the support a transfer goes to, from another) reaches further.
     fn max_step_at(&self, env: &LocoView<'_>, at: &CandidateAt) -> f32 {

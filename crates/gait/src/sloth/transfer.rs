@@ -17,6 +17,11 @@ use super::{LimbPhase, LocoView, Sloth, Status, mix64};
 /// around it from the branch (radians): beside the branch, head clear of it.
 const TRANSFER_SIDE_ANGLE: f32 = std::f32::consts::FRAC_PI_3;
 
+/// A mirrored side is taken only if its fore limbs' longer step is shorter by
+/// more than this (metres): f32 rounding of the grips, a symmetric stance
+/// keeps the side chosen by the limb.
+const SIDE_CHOICE_SLACK_M: f32 = 1e-3;
+
 /// A change between a branch and a trunk in progress (SPEC `transfer_to_trunk`,
 /// `transfer_to_branch`). On the trunk the body faces it from `side`; while
 /// the limbs move across, the body rolls about its long axis between hanging
@@ -184,6 +189,45 @@ impl Sloth {
             (away * angle.cos() + n2 * angle.sin()).normalize_or(fallback)
         } else {
             off_axis.normalize_or(fallback)
+        };
+        // Head first onto a trunk, of that side and its mirror about the
+        // branch's plane, the one from which the farther fore limb reaches
+        // its trunk grip the sooner (ties: the side chosen above). The second
+        // fore limb reaches around the trunk from the branch's other side:
+        // where the branch meets the trunk steeply (branch_trunk at 155°,
+        // 0.15 m) or on a thick trunk (112°, 0.2 m) the side chosen for the
+        // first put the other's grip 0.5 m from it, out of reach, and the
+        // transfer stalled with one fore limb on the trunk. The side is also
+        // chosen afresh each time a fore limb's search starts the transfer
+        // again, and toward the searching limb's side it flipped with it.
+        let side = if onto_trunk && dir > 0.0 {
+            let mirror = (2.0 * away * away.dot(side) - side).normalize_or(side);
+            let longest = |side: Vec3| {
+                let probe = Sloth {
+                    transfer: Some(Transfer {
+                        to,
+                        trunk,
+                        side,
+                        away,
+                        dir,
+                        stance_keys,
+                        stance_visits,
+                        stance_count,
+                    }),
+                    ..*self
+                };
+                [Limb::LF, Limb::RF]
+                    .map(|l| probe.trunk_grip_distance(env, l.index(), trunk))
+                    .into_iter()
+                    .fold(0.0f32, f32::max)
+            };
+            if longest(mirror) + SIDE_CHOICE_SLACK_M < longest(side) {
+                mirror
+            } else {
+                side
+            }
+        } else {
+            side
         };
         self.transfer = Some(Transfer {
             to,
