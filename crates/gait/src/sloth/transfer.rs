@@ -200,20 +200,21 @@ impl Sloth {
         // transfer stalled with one fore limb on the trunk. The side is also
         // chosen afresh each time a fore limb's search starts the transfer
         // again, and toward the searching limb's side it flipped with it.
+        let transfer = |side: Vec3| Transfer {
+            to,
+            trunk,
+            side,
+            away,
+            dir,
+            stance_keys,
+            stance_visits,
+            stance_count,
+        };
         let side = if onto_trunk && dir > 0.0 {
             let mirror = (2.0 * away * away.dot(side) - side).normalize_or(side);
             let longest = |side: Vec3| {
                 let probe = Sloth {
-                    transfer: Some(Transfer {
-                        to,
-                        trunk,
-                        side,
-                        away,
-                        dir,
-                        stance_keys,
-                        stance_visits,
-                        stance_count,
-                    }),
+                    transfer: Some(transfer(side)),
                     ..*self
                 };
                 [Limb::LF, Limb::RF]
@@ -229,16 +230,7 @@ impl Sloth {
         } else {
             side
         };
-        self.transfer = Some(Transfer {
-            to,
-            trunk,
-            side,
-            away,
-            dir,
-            stance_keys,
-            stance_visits,
-            stance_count,
-        });
+        self.transfer = Some(transfer(side));
     }
 
     /// Goal mode, walking head first along a branch toward the trunk the
