@@ -9,9 +9,8 @@ use slothsim_rig::Limb;
 use slothsim_scene::{SupportId, SupportKind};
 
 use crate::path::project;
-use crate::rigdata::BODY_RADIUS;
 
-use super::collide::torso_penetration;
+use super::collide::{torso_box_meets, torso_penetration};
 use super::solve::KeyBits;
 use super::{LimbPhase, LimbState, LocoView, Sloth};
 
@@ -574,10 +573,7 @@ impl Sloth {
         // The box the torso capsule grown by the clearance fills: a trunk's
         // box apart from it is too far to matter (most trunks, most frames).
         let clearance = env.cfg.hang_clearance_m;
-        let grow = Vec3::splat(BODY_RADIUS + clearance);
-        let (lo, hi) = (torso[0].min(torso[1]) - grow, torso[0].max(torso[1]) + grow);
-        let (blo, bhi) = env.adjacency.bounds(trunk);
-        if blo.cmpgt(hi).any() || bhi.cmplt(lo).any() {
+        if !torso_box_meets(env, torso, clearance, trunk) {
             return 0.0;
         }
         let s = scene.support(trunk);

@@ -11,6 +11,7 @@ use slothsim_scene::{SupportId, SupportKind};
 use super::body::{
     BodyOffset, BodySide, body_offset, hind_back_share, rotation_from, swing_point, trunk_blend,
 };
+use super::collide::torso_box_meets;
 use super::solve::lanes8;
 use super::turn::{Turn, TurnStep};
 use super::{Grip, LimbPhase, LocoView, Sloth};
@@ -314,12 +315,9 @@ impl Sloth {
             self.body_pos + self.body_rot * env.rig.torso_ms[0],
             self.body_pos + self.body_rot * env.rig.torso_ms[1],
         ];
-        let grow = Vec3::splat(crate::rigdata::BODY_RADIUS + env.cfg.max_step_m);
-        let (lo, hi) = (torso[0].min(torso[1]) - grow, torso[0].max(torso[1]) + grow);
         self.near_supports(env).any(|id| {
-            let (blo, bhi) = env.adjacency.bounds(id);
             scene.support(id).kind == SupportKind::Trunk
-                && !(blo.cmpgt(hi).any() || bhi.cmplt(lo).any())
+                && torso_box_meets(env, torso, env.cfg.max_step_m, id)
         })
     }
 

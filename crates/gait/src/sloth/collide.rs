@@ -223,6 +223,21 @@ fn segment_distance(p0: Vec3, p1: Vec3, q0: Vec3, q1: Vec3) -> (f32, f32) {
     ((p0 + d1 * s).distance(q0 + d2 * t), t)
 }
 
+/// Whether support `id`'s bounding box comes within `margin` of the torso
+/// capsule `torso` (its box grown by the body's radius and `margin`): a
+/// support apart from that box cannot be within `margin` of the body.
+pub(super) fn torso_box_meets(
+    env: &LocoView<'_>,
+    torso: [Vec3; 2],
+    margin: f32,
+    id: SupportId,
+) -> bool {
+    let grow = Vec3::splat(BODY_RADIUS + margin);
+    let (lo, hi) = (torso[0].min(torso[1]) - grow, torso[0].max(torso[1]) + grow);
+    let (blo, bhi) = env.adjacency.bounds(id);
+    !(blo.cmpgt(hi).any() || bhi.cmplt(lo).any())
+}
+
 impl Sloth {
     /// Whether a body at (`pos`, `rot`) would enter a support near the grips
     /// (e.g. walking a branch into its trunk).
