@@ -44,6 +44,7 @@ const SWING_CHECKS: [f32; 3] = [0.3, 0.55, 0.8];
 /// [`Sloth::lift_reachable`]): both limbs' arc points and both ends.
 const MAX_STANCES: usize = 2 * (SWING_CHECKS.len() + 1) + 1;
 const _: () = assert!(MAX_STANCES <= super::collide::MAX_BODIES);
+const _: () = assert!(TRANSFER_BODY_CHECKS.len() <= super::collide::MAX_BODIES);
 
 /// Stances a step check solves: the arc's points and the end.
 const STANCE_CHECKS: usize = SWING_CHECKS.len() + 1;
@@ -322,16 +323,19 @@ impl Sloth {
     }
 
     /// Whether the body, placed as `stance` places it at each of
-    /// [`TRANSFER_BODY_CHECKS`]'s points of a step's arc, enters a support.
+    /// [`TRANSFER_BODY_CHECKS`]'s points of a step's arc, enters a support:
+    /// all the arc's bodies are placed first and tested together (the
+    /// supports near the grips looked up once, `Sloth::bodies_penetrate`).
     fn arc_body_penetrates(
         &self,
         env: &LocoView<'_>,
         mut stance: impl FnMut(Option<f32>) -> StanceCheck,
     ) -> bool {
-        TRANSFER_BODY_CHECKS.iter().any(|&t| {
-            let st = stance(Some(t));
-            self.body_penetrates(env, st.pos, st.rot)
-        })
+        let bodies: [(Vec3, Quat); TRANSFER_BODY_CHECKS.len()] = std::array::from_fn(|k| {
+            let st = stance(Some(TRANSFER_BODY_CHECKS[k]));
+            (st.pos, st.rot)
+        });
+        self.bodies_penetrate(env, &bodies)
     }
 
     /// The hind pair's step onto a branch (`transfer_to_branch`): the largest
