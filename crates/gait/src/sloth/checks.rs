@@ -11,7 +11,7 @@ use slothsim_scene::{SupportId, SupportKind};
 use super::body::{
     BodyOffset, BodySide, body_offset, hind_back_share, rotation_from, swing_point, trunk_blend,
 };
-use super::collide::torso_box_meets;
+use super::collide::{torso_box_meets, torso_within};
 use super::solve::lanes8;
 use super::turn::{Turn, TurnStep};
 use super::{Grip, LimbPhase, LocoView, Sloth};
@@ -310,6 +310,7 @@ impl Sloth {
     /// trunk between the IK checks' arc points (a crowd wanderer near a
     /// branch's tip stepped 0.14 m and its torso entered the branch's trunk
     /// 10.4 mm at 13–27 % of the arc, before the first point at 30 %).
+    /// The trunk's bounding box first, then its segments' capsules.
     fn trunk_within_step(&self, env: &LocoView<'_>) -> bool {
         let scene = env.scene();
         let torso = [
@@ -319,6 +320,12 @@ impl Sloth {
         self.near_supports(env).any(|id| {
             scene.support(id).kind == SupportKind::Trunk
                 && torso_box_meets(env, torso, env.cfg.max_step_m, id)
+                && torso_within(
+                    scene.support(id),
+                    env.adjacency.segment_chunks(id),
+                    torso,
+                    env.cfg.max_step_m,
+                )
         })
     }
 

@@ -41,6 +41,17 @@ fn torso_penetrates(
     })
 }
 
+/// Whether the torso capsule `torso` comes within `margin` of support `s`'s
+/// surface (segment by segment, as [`torso_penetrates`] at depth `−margin`).
+pub(super) fn torso_within(
+    s: &slothsim_scene::Support,
+    chunks: &[SegmentChunk],
+    torso: [Vec3; 2],
+    margin: f32,
+) -> bool {
+    torso_penetrates(s, chunks, torso, -margin)
+}
+
 /// Whether any of the torso capsules `torsos` enters support `s` deeper than
 /// `depth`: the same as `torsos.iter().any(|&t| torso_penetrates(s, chunks, t, depth))`
 /// (an OR taken in another order), with the sphere `all` around all the
