@@ -35,6 +35,11 @@ pub const LOAD_KEEP_COM_M: f32 = 1e-4;
 /// for seconds (14 % a frame): without a tolerance every frame is a new solve.
 pub const LOAD_KEEP_ACC: f32 = 0.01;
 
+/// A release check's residual (BW) is taken as moved by at least this much besides the
+/// acceleration's change (solver tolerance and rounding: ≪ this) when the last check's
+/// decision is kept (`Sloth::release_carried`).
+const RELEASE_KEEP_MARGIN_BW: f32 = 1e-5;
+
 /// Longest a due limb waits for the release rule (s): then it lets go anyway (counted in
 /// `forced_releases`), so a stance the grips cannot carry never stalls the gait for good.
 pub const RELEASE_MAX_WAIT_S: f32 = 1.0;
@@ -83,6 +88,10 @@ pub struct LoadTrack {
     /// ([`LoadInputs::close_to`]).
     #[serde(default)]
     pub solved_from: Option<LoadInputs>,
+    /// The last release check solved: the limb asked about, the inputs and the residual
+    /// (BW) the other grips left (see `Sloth::release_carried`).
+    #[serde(default)]
+    pub release_from: Option<(u8, LoadInputs, f32)>,
 }
 
 /// The inputs of a sloth's grip-load solve: its holding grips, centre of mass and its
@@ -121,16 +130,31 @@ impl LoadInputs {
     /// centre of mass `com` within [`LOAD_KEEP_COM_M`] and the acceleration `acc` within
     /// [`LOAD_KEEP_ACC`] of these (NaN is never within).
     pub fn close_to(&self, limbs: &[LimbState; 4], com: Vec3, acc: Vec3) -> bool {
-        let bits = |v: Vec3| v.to_array().map(f32::to_bits);
         self.acc.distance_squared(acc) <= LOAD_KEEP_ACC * LOAD_KEEP_ACC
             && self.com.distance_squared(com) <= LOAD_KEEP_COM_M * LOAD_KEEP_COM_M
-            && limbs.iter().enumerate().all(|(li, l)| {
-                let holds = l.phase != LimbPhase::Swinging;
-                let [p, n] = self.grips[li];
-                holds == (self.holding & (1 << li) != 0)
-                    && (!holds || (bits(l.grip.point) == bits(p) && bits(l.grip.normal) == bits(n)))
-            })
+            && self.same_grips(limbs)
     }
+
+    /// Whether `limbs` hold the same grips as these inputs and `com` is the same, all
+    /// bit for bit.
+    fn same_stance(&self, limbs: &[LimbState; 4], com: Vec3) -> bool {
+        bits(self.com) == bits(com) && self.same_grips(limbs)
+    }
+
+    /// Whether the same limbs hold the same grips (points and normals, bit for bit).
+    fn same_grips(&self, limbs: &[LimbState; 4]) -> bool {
+        limbs.iter().enumerate().all(|(li, l)| {
+            let holds = l.phase != LimbPhase::Swinging;
+            let [p, n] = self.grips[li];
+            holds == (self.holding & (1 << li) != 0)
+                && (!holds || (bits(l.grip.point) == bits(p) && bits(l.grip.normal) == bits(n)))
+        })
+    }
+}
+
+/// The bits of a vector.
+fn bits(v: Vec3) -> [u32; 3] {
+    v.to_array().map(f32::to_bits)
 }
 
 impl Default for LoadTrack {
@@ -151,6 +175,7 @@ impl Default for LoadTrack {
             residual_force: Vec3::ZERO,
             residual_torque: Vec3::ZERO,
             solved_from: None,
+            release_from: None,
         }
     }
 }
@@ -277,6 +302,24 @@ impl Sloth {
         w: &LocoView<'_>,
         except: usize,
     ) -> Result<(LimbLoads, [u8; 4]), LoadError> {
+        // The stage records this frame's centre of mass before it solves; a release
+        // check (later in the same tick) may come between two samples, so it takes the
+        // body as it is now.
+        let com = if except == 4 && self.load.samples > 0 {
+            self.load.com
+        } else {
+            self.centre_of_mass(w)
+        };
+        self.loads_without_at(w, except, com)
+    }
+
+    /// [`Sloth::loads_without`] with the centre of mass at `com`.
+    fn loads_without_at(
+        &self,
+        w: &LocoView<'_>,
+        except: usize,
+        com: Vec3,
+    ) -> Result<(LimbLoads, [u8; 4]), LoadError> {
         let params = load_params(w.cfg);
         let mut grips = [LoadGrip {
             point: Vec3::ZERO,
@@ -298,14 +341,6 @@ impl Sloth {
                 k += 1;
             }
         }
-        // The stage records this frame's centre of mass before it solves; a release
-        // check (later in the same tick) may come between two samples, so it takes the
-        // body as it is now.
-        let com = if except == 4 && self.load.samples > 0 {
-            self.load.com
-        } else {
-            self.centre_of_mass(w)
-        };
         let stance = Stance {
             com,
             com_acc: self.load.com_acc(),
@@ -388,6 +423,38 @@ impl Sloth {
         }
     }
 
+    /// Whether the holding grips except limb `li`'s carry the body with a residual of at
+    /// most `release_residual_bw`. Where the last check asked about the same limb with
+    /// the same grips and centre of mass (bits), only the acceleration has changed the
+    /// wrench the grips must carry, by `|Δa| / g` (the kernel's scaled units), and the
+    /// residual by no more (the residual of the loads' QP is nonexpansive in that
+    /// wrench: it is the resolvent of a monotone operator, `slothsim_load`'s dual
+    /// equation). So while the last residual lies farther than that (plus
+    /// [`RELEASE_KEEP_MARGIN_BW`]) from the threshold, a solve would decide the same,
+    /// and the last decision is kept: a limb held back at rest is asked every frame for
+    /// up to [`RELEASE_MAX_WAIT_S`].
+    fn release_carried(&mut self, w: &LocoView<'_>, li: usize) -> Result<bool, LoadError> {
+        let threshold = w.cfg.release_residual_bw;
+        let com = self.centre_of_mass(w);
+        let acc = self.load.com_acc();
+        if let Some((limb, from, residual)) = self.load.release_from
+            && usize::from(limb) == li
+            && from.same_stance(&self.limbs, com)
+        {
+            let moved = from.acc.distance(acc) / load_params(w.cfg).gravity as f32;
+            if (residual - threshold).abs() > moved + RELEASE_KEEP_MARGIN_BW {
+                return Ok(residual <= threshold);
+            }
+        }
+        let (l, _) = self.loads_without_at(w, li, com)?;
+        self.load.release_from = Some((
+            li as u8,
+            LoadInputs::of(&self.limbs, com, acc),
+            l.residual_bw,
+        ));
+        Ok(l.residual_bw <= threshold)
+    }
+
     /// Release rule: may limb `li` let go? Only if the other holding grips carry the body
     /// with a residual of at most `release_residual_bw`, or it has waited
     /// [`RELEASE_MAX_WAIT_S`] already. Not applied during a branch ↔ trunk transfer nor
@@ -397,8 +464,8 @@ impl Sloth {
     pub(crate) fn release_allowed(&mut self, w: &LocoView<'_>, li: usize) -> bool {
         let allowed = self.transfer.is_some()
             || self.hang_trunk.is_some()
-            || match self.loads_without(w, li) {
-                Ok((l, _)) => l.residual_bw <= w.cfg.release_residual_bw,
+            || match self.release_carried(w, li) {
+                Ok(carried) => carried,
                 Err(_) => {
                     self.load.failures += 1;
                     true
@@ -486,5 +553,61 @@ mod tests {
             "{kept} of {frames} frames kept; worst {worst_force} BW a claw, {worst_residual} BW residual"
         );
         assert!(kept > 100, "{kept} of {frames} frames kept");
+    }
+
+    /// Release checks asked again and again of the sloths of every preset (walked
+    /// 10 s), each time with the acceleration moved a little from the last (up to
+    /// 0.05 m/s²) and the threshold at, near and far from the residual: a kept decision
+    /// is always the one a solve makes.
+    #[test]
+    fn kept_release_decisions_are_those_a_solve_makes() {
+        let mut rng = crate::sloth::test_util::xorshift(26);
+        let (mut kept, mut asked) = (0, 0);
+        for kind in PresetKind::ALL {
+            let (mut env, mut sloth) = preset_sloth(kind);
+            let release_bw = env.cfg.release_residual_bw;
+            let mut batch = TraceBatch::default();
+            for frame in 0..600 {
+                let view = env.view();
+                batch.run(&view.query);
+                sloth.step_search(&view, &mut batch);
+                sloth.body_average(&view, DT);
+                sloth.solve_limbs(&view);
+                sloth.grip_load(&view, DT, 1);
+                sloth.transitions(&view, DT, &mut batch);
+                if frame % 10 != 0 {
+                    continue;
+                }
+                for li in 0..4 {
+                    if sloth.limbs[li].phase != LimbPhase::Planted {
+                        continue;
+                    }
+                    let mut probe = sloth;
+                    for k in 0..24 {
+                        let jitter = Vec3::new(rng() - 0.5, rng() - 0.5, rng() - 0.5) * 0.1;
+                        probe.load.acc += jitter;
+                        let Ok((fresh, _)) = probe.loads_without(&env.view(), li) else {
+                            continue;
+                        };
+                        env.cfg.release_residual_bw = match k % 4 {
+                            0 => release_bw,
+                            1 => (fresh.residual_bw + 1e-6).max(1e-4),
+                            2 => (fresh.residual_bw + (rng() - 0.5) * 0.01).max(1e-4),
+                            _ => (fresh.residual_bw - 1e-6).max(1e-4),
+                        };
+                        let view = env.view();
+                        let before = probe.load.release_from;
+                        let carried = probe.release_carried(&view, li).unwrap();
+                        let want = fresh.residual_bw <= view.cfg.release_residual_bw;
+                        assert_eq!(carried, want, "{kind:?} frame {frame} limb {li} ask {k}");
+                        kept += usize::from(before.is_some() && probe.load.release_from == before);
+                        asked += 1;
+                    }
+                    env.cfg.release_residual_bw = release_bw;
+                }
+            }
+        }
+        eprintln!("{kept} of {asked} release decisions kept");
+        assert!(kept * 4 > asked, "{kept} of {asked} kept");
     }
 }
