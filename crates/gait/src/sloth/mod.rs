@@ -36,7 +36,7 @@ mod search;
 mod solve;
 mod spawn;
 #[cfg(test)]
-mod test_util;
+pub(crate) mod test_util;
 mod transfer;
 mod turn;
 
