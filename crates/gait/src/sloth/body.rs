@@ -56,8 +56,12 @@ const HANG_OUT_COS: f32 = 0.5;
 /// axis), and not at all beyond 50° (`Sloth::approach_trunk`). Heading into
 /// the trunk (branch_trunk below ~130°) the head meets the trunk and the
 /// fore limbs take it ahead of the body: rolled there, the stances changed
-/// and transfers at 97–112° (0.2 m) were lost. Swept at 0.5° (three radii):
-/// full/none at 30°/44° lost 15 angles, 40°/50° lost 11, 37°/53° lost 17.
+/// and transfers at 97–112° (0.2 m) were lost. Swept at 0.5° over 60–160°
+/// at the three radii against main's 539 of 603: full/none at 40°/50° 560
+/// (14 lost), 40.5°/48.6° 560 (11 lost), 30°/44.4° 550 (20 lost). The
+/// transfer's side must follow the roll (`Sloth::begin_transfer`): an earlier
+/// form of this roll without that passed 486; that side choice without the
+/// roll, 533.
 const APPROACH_ALONG_FULL_SIN: f32 = 0.643;
 
 /// See [`APPROACH_ALONG_FULL_SIN`] (sin 50°).
@@ -657,9 +661,8 @@ impl Sloth {
         need * (trunk_side + (1.0 - trunk_side.abs()) * own_side)
     }
 
-    /// Goal mode, head first along a branch to the trunk the goal is on
-    /// (no transfer under way, or one onto that trunk head first): that
-    /// trunk. Below a branch that runs along the trunk (the wedge of
+    /// Goal mode, along a branch to the trunk the goal is on (a fore limb
+    /// on a branch next to it, or a transfer onto it): that trunk. Below a branch that runs along the trunk (the wedge of
     /// branch_trunk above ~140°) the hanging body lies beside the trunk,
     /// with its back to it, and rolls clear of it to its own side
     /// ([`Self::hang_roll`]); unrolled, every step up the branch toward the
@@ -676,10 +679,15 @@ impl Sloth {
         if scene.support(gs).kind != SupportKind::Trunk {
             return None;
         }
-        if let Some(tr) = self.transfer {
-            // Under way onto that trunk head first: rolled as on the
-            // approach until it ends (continuous).
-            return (tr.to == gs && tr.dir > 0.0).then_some(gs);
+        // A transfer onto that trunk: rolled as on the approach until it
+        // ends. Nothing else about the transfer or the travel direction
+        // counts: a back-off (or a search starting a transfer during one)
+        // had dropped the roll for a frame and the body jumped 29 cm
+        // (branch_trunk 144.984°, 0.2 m: 10.6 cm into the trunk). Tail first
+        // down a branch to the trunk (below ~90°) the branch runs far from
+        // the trunk's axis, so it rolls nothing (see `APPROACH_ALONG_NONE_SIN`).
+        if self.transfer.is_some_and(|tr| tr.to == gs) {
+            return Some(gs);
         }
         [Limb::LF, Limb::RF]
             .map(|l| self.limbs[l.index()].grip.support)
