@@ -99,8 +99,9 @@ const SHARE_SEED: u64 = 24;
 /// descent down a branch falling to the trunk; to the branch 36 → 40 with the
 /// hind grips on a trunk left for a branch around the hips' side, 40 → 42
 /// with the body rolled in full to its own side of a trunk it leaves for a
-/// branch); the goal is all [`DRAWS`].
-const SHARE_FLOOR: [usize; 2] = [39, 42];
+/// branch; to the trunk 39 → 41 with the body rolled clear of a trunk it
+/// approaches alongside); the goal is all [`DRAWS`].
+const SHARE_FLOOR: [usize; 2] = [41, 42];
 
 #[test]
 fn transfer_pass_share_holds() {

@@ -50,6 +50,23 @@ const HANG_MAX_ROLL: f32 = std::f32::consts::FRAC_PI_2;
 /// below it until the transfer turns it (see `transfer_to_trunk`).
 const HANG_OUT_COS: f32 = 0.5;
 
+/// Approaching a trunk along a branch (goal mode, head first), the body rolls
+/// clear of the trunk in full where the branch runs within 40° of the
+/// trunk's axis (the sine of that angle: the branch's direction across the
+/// axis), and not at all beyond 50° (`Sloth::approach_trunk`). Heading into
+/// the trunk (branch_trunk below ~130°) the head meets the trunk and the
+/// fore limbs take it ahead of the body: rolled there, the stances changed
+/// and transfers at 97–112° (0.2 m) were lost. Swept at 0.5° over 60–160°
+/// at the three radii against main's 539 of 603: full/none at 40°/50° 560
+/// (14 lost), 40.5°/48.6° 560 (11 lost), 30°/44.4° 550 (20 lost). The
+/// transfer's side must follow the roll (`Sloth::begin_transfer`): an earlier
+/// form of this roll without that passed 486; that side choice without the
+/// roll, 533.
+const APPROACH_ALONG_FULL_SIN: f32 = 0.643;
+
+/// See [`APPROACH_ALONG_FULL_SIN`] (sin 50°).
+const APPROACH_ALONG_NONE_SIN: f32 = 0.766;
+
 /// The weight shift ([`Sloth::weight_shift`]) fades out as the shifted torso
 /// comes this close to a support near the grips (m).
 const SHIFT_CLEARANCE: f32 = 0.05;
@@ -538,6 +555,29 @@ impl Sloth {
     /// it, and only heading out from it ([`HANG_OUT_COS`]). Continuous in
     /// the paws: the body never jumps between frames or stance checks.
     fn hang_roll(&self, env: &LocoView<'_>, fwd: Vec3, mean: Vec3, metres: f32) -> f32 {
+        let roll = self.hang_roll_from(env, fwd, mean, metres, None);
+        match self.approach_trunk(env) {
+            Some(trunk) => {
+                (roll + self.hang_roll_from(env, fwd, mean, metres, Some(trunk))).clamp(-1.0, 1.0)
+            }
+            None => roll,
+        }
+    }
+
+    /// [`Self::hang_roll`] from the trunk of a transfer under way or the
+    /// trunk left ([`Sloth::hang_trunk`]); or, given `approach`, from the
+    /// trunk the body approaches alongside ([`Sloth::approach_trunk`]): to
+    /// the body's own side, in full where the branch it holds runs within
+    /// [`APPROACH_ALONG_FULL_SIN`] of the trunk's axis, none beyond
+    /// [`APPROACH_ALONG_NONE_SIN`].
+    fn hang_roll_from(
+        &self,
+        env: &LocoView<'_>,
+        fwd: Vec3,
+        mean: Vec3,
+        metres: f32,
+        approach: Option<SupportId>,
+    ) -> f32 {
         // A transfer only set up by a search (no limb on its target yet)
         // rolls nothing: one that is not taken leaves no jump behind.
         // Nor does a tail-first one onto a trunk (`Sloth::descends_tail_first`):
@@ -551,9 +591,10 @@ impl Sloth {
         // Leaving the trunk for a branch (a transfer onto a branch, or
         // still rolled after one): the trunk is the one the branch leaves,
         // behind the body at the branch's root (see the roll's side below).
-        let (trunk, leaving) = match (under_way, self.hang_trunk) {
-            (Some(tr), _) => (tr.trunk, tr.to != tr.trunk),
-            (None, Some(trunk)) if !self.fore_on_trunk(env) => (trunk, true),
+        let (trunk, leaving) = match (approach, under_way, self.hang_trunk) {
+            (Some(trunk), ..) => (trunk, true),
+            (None, Some(tr), _) => (tr.trunk, tr.to != tr.trunk),
+            (None, None, Some(trunk)) if !self.fore_on_trunk(env) => (trunk, true),
             _ => return 0.0,
         };
         let scene = env.scene();
@@ -583,7 +624,23 @@ impl Sloth {
         }
         let a = project(s, mean);
         let radial = (mean - a.point) - a.tangent * a.tangent.dot(mean - a.point);
-        let heading_out = (fwd.dot(radial.normalize_or_zero()) / HANG_OUT_COS).clamp(0.0, 1.0);
+        let heading_out = match approach {
+            // Alongside: the branch's direction across the trunk's axis (the
+            // sine of its angle to the axis), from the branch's geometry
+            // alone, so it holds while the heading turns in a transfer.
+            Some(_) => {
+                let across = self.approach_branch(env, trunk).map_or(1.0, |b| {
+                    project(scene.support(b), mean)
+                        .tangent
+                        .dot(radial.normalize_or_zero())
+                        .abs()
+                });
+                ((APPROACH_ALONG_NONE_SIN - across)
+                    / (APPROACH_ALONG_NONE_SIN - APPROACH_ALONG_FULL_SIN))
+                    .clamp(0.0, 1.0)
+            }
+            None => (fwd.dot(radial.normalize_or_zero()) / HANG_OUT_COS).clamp(0.0, 1.0),
+        };
         let need = heading_out * ((depth + clearance) / clearance).clamp(0.0, 1.0);
         // Away from a trunk off to a side of the branch; toward the body's
         // own side of it where the trunk is below it (the fork), passing
@@ -602,6 +659,64 @@ impl Sloth {
         let trunk_side =
             (lateral.dot((mean - a.point).normalize_or_zero()) / HANG_TRUNK_SIDE).clamp(-1.0, 1.0);
         need * (trunk_side + (1.0 - trunk_side.abs()) * own_side)
+    }
+
+    /// Goal mode, along a branch to the trunk the goal is on (a fore limb
+    /// on a branch next to it, or a transfer onto it): that trunk. Below a branch that runs along the trunk (the wedge of
+    /// branch_trunk above ~140°) the hanging body lies beside the trunk,
+    /// with its back to it, and rolls clear of it to its own side
+    /// ([`Self::hang_roll`]); unrolled, every step up the branch toward the
+    /// junction put the body in the trunk (branch_trunk 155°, 0.2 m: the fore
+    /// grips stalled 0.5 m below the junction, from where the second fore
+    /// limb's trunk grip, across the branch, was 0.54 m off, past the
+    /// 0.405 m a transfer step may reach). Wander mode is unchanged.
+    pub(super) fn approach_trunk(&self, env: &LocoView<'_>) -> Option<SupportId> {
+        if self.wander || self.hang_trunk.is_some() {
+            return None;
+        }
+        let (gs, _) = self.goal?;
+        let scene = env.scene();
+        if scene.support(gs).kind != SupportKind::Trunk {
+            return None;
+        }
+        // A transfer onto that trunk: rolled as on the approach until it
+        // ends. Nothing else about the transfer or the travel direction
+        // counts: a back-off (or a search starting a transfer during one)
+        // had dropped the roll for a frame and the body jumped 29 cm
+        // (branch_trunk 144.984°, 0.2 m: 10.6 cm into the trunk). Tail first
+        // down a branch to the trunk (below ~90°) the branch runs far from
+        // the trunk's axis, so it rolls nothing (see `APPROACH_ALONG_NONE_SIN`).
+        if self.transfer.is_some_and(|tr| tr.to == gs) {
+            return Some(gs);
+        }
+        [Limb::LF, Limb::RF]
+            .map(|l| self.limbs[l.index()].grip.support)
+            .into_iter()
+            .any(|b| {
+                scene.support(b).kind == SupportKind::Branch
+                    && env.adjacency.neighbours(b).contains(&gs)
+            })
+            .then_some(gs)
+    }
+
+    /// A branch next to trunk `trunk` that a limb holds (the fore limbs' first).
+    fn approach_branch(&self, env: &LocoView<'_>, trunk: SupportId) -> Option<SupportId> {
+        let scene = env.scene();
+        self.limbs.iter().map(|l| l.grip.support).find(|&b| {
+            scene.support(b).kind == SupportKind::Branch
+                && env.adjacency.neighbours(b).contains(&trunk)
+        })
+    }
+
+    /// The way the body is rolled clear of a trunk now (across its heading,
+    /// horizontal), if it is ([`Self::hang_roll`]).
+    pub(super) fn rolled_toward(&self, env: &LocoView<'_>) -> Option<Vec3> {
+        let t = self.targets();
+        let fwd = self.formula6_fwd(&t);
+        let mean = paws_mean(&t);
+        let metres = body_offset(env, self.trunk_weights(env)).metres;
+        let roll = self.hang_roll(env, fwd, mean, metres);
+        (roll != 0.0).then(|| fwd.cross(Vec3::Y).normalize_or_zero() * roll.signum())
     }
 
     /// At the start of a step search with no other limb in a step (and at

@@ -222,7 +222,19 @@ impl Sloth {
                     .into_iter()
                     .fold(0.0f32, f32::max)
             };
-            if longest(mirror) + SIDE_CHOICE_SLACK_M < longest(side) {
+            // Rolled clear of the trunk alongside on the approach
+            // (`Sloth::approach_trunk`): the side the body rolled to, so the
+            // transfer's roll goes on the way the body already turned.
+            let rolled = self
+                .approach_trunk(env)
+                .and_then(|_| self.rolled_toward(env));
+            if let Some(toward) = rolled {
+                if side.dot(toward) >= 0.0 {
+                    side
+                } else {
+                    mirror
+                }
+            } else if longest(mirror) + SIDE_CHOICE_SLACK_M < longest(side) {
                 mirror
             } else {
                 side
