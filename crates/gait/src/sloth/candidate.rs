@@ -474,8 +474,16 @@ impl Sloth {
             return false;
         }
         // Onto a trunk, the fore limbs climb no further ahead of the hind
-        // limbs than the hind limbs can follow from the branch.
+        // limbs than the hind limbs can follow from the branch. Not for a
+        // stuck wanderer (its search gave up): the cap keeps a walking
+        // sloth's fore limbs from outclimbing its hind limbs, but half-done
+        // transfers stood locked at it in crowds (fore limbs at the cap on
+        // the trunk, the hind limbs on the branch unable to reach the trunk
+        // or step on it), where a step up by a fore limb (its reach, head
+        // up and every other check kept) changes the stance the hind limbs
+        // must reach from. Goal mode keeps the cap (it re-plans).
         if p.transfer.is_some()
+            && !(self.wander && self.stuck_cause.is_some())
             && limb.is_fore()
             && p.kind == SupportKind::Trunk
             && proj(approx) - hind_max > cfg.max_transfer_spread_m

@@ -443,6 +443,27 @@ impl Sloth {
         *n = n.saturating_add(1);
     }
 
+    /// Wander mode, the search gave up: each limb on a branch searches along
+    /// it the way the body travels. A grip's travel sign along its support
+    /// is set where the limb takes it (and flips with every turn back); at
+    /// a fork the body's heading turns as limbs take the other branch, and
+    /// wanderers stood frozen at forks with every limb's sign pointing
+    /// back along the body (its support's tangent × sign · travel −0.16 to
+    /// −0.37): every step was backward, in both directions of travel, as
+    /// a turn back flips the travel and the signs together.
+    pub(super) fn align_to_travel(&mut self, env: &LocoView<'_>) {
+        let travel = self.travel();
+        let scene = env.scene();
+        for l in &mut self.limbs {
+            let s = scene.support(l.grip.support);
+            if s.kind == SupportKind::Branch
+                && project(s, l.grip.point).tangent.dot(travel) * l.grip.sdir < 0.0
+            {
+                l.grip.sdir = -l.grip.sdir;
+            }
+        }
+    }
+
     /// Side steps around trunk `sid` (SPEC `find_side_step`): when the goal
     /// is on this trunk with a side the body does not yet face it from, the
     /// turn about the axis the next step makes (toward the goal's side, the

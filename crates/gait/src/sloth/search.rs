@@ -305,8 +305,13 @@ impl Sloth {
     /// then stop here. Goal mode at a branch end with the goal behind, or a
     /// wanderer whose turn backs brought no step (it would stop): turn the
     /// body around. Goal mode otherwise: re-plan (`replan.rs`), else stop.
+    /// A wanderer first turns its limbs' travel along their branches the way
+    /// its body travels ([`Sloth::align_to_travel`]).
     pub(super) fn give_up(&mut self, env: &LocoView<'_>) {
         self.stuck_cause = Some(self.diagnose_stuck(env));
+        if self.wander && self.turn.is_none() {
+            self.align_to_travel(env);
+        }
         let stalled = self.stalled();
         if (stalled && self.may_turn_around(env, false))
             || (self.goal_behind() && self.may_turn_around(env, true))
