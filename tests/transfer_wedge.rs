@@ -31,12 +31,13 @@ const DRAWS: usize = 8;
 /// The fixed seed.
 const SEED: u64 = 146;
 
-#[test]
-fn trunk_to_branch_into_the_wedge() {
-    let mut rng = Pcg64::seed_from_u64(SEED);
-    let cases: Vec<(f32, f32)> = RADII
+/// `draws` seeded (angle, radius) cases per radius of [`RADII`], angles in
+/// [`ANGLES`], none on the half-degree grid.
+fn draw_cases(seed: u64, draws: usize) -> Vec<(f32, f32)> {
+    let mut rng = Pcg64::seed_from_u64(seed);
+    RADII
         .iter()
-        .flat_map(|&r| std::iter::repeat_n(r, DRAWS))
+        .flat_map(|&r| std::iter::repeat_n(r, draws))
         .map(|r| {
             let a: f32 = rng.random_range(ANGLES);
             let a = if (a * 2.0).fract() == 0.0 {
@@ -46,7 +47,12 @@ fn trunk_to_branch_into_the_wedge() {
             };
             (a, r)
         })
-        .collect();
+        .collect()
+}
+
+#[test]
+fn trunk_to_branch_into_the_wedge() {
+    let cases = draw_cases(SEED, DRAWS);
     println!("cases (angle, radius): {cases:?}");
     let fails: Vec<String> = cases
         .par_iter()
@@ -85,20 +91,7 @@ const ONTO_FLOOR: [usize; 2] = [10, 11];
 /// [`ONTO_FLOOR`] (not all pass yet: docs/scenarios.md).
 #[test]
 fn branch_to_trunk_in_the_wedge() {
-    let mut rng = Pcg64::seed_from_u64(ONTO_SEED);
-    let cases: Vec<(f32, f32)> = RADII
-        .iter()
-        .flat_map(|&r| std::iter::repeat_n(r, ONTO_DRAWS))
-        .map(|r| {
-            let a: f32 = rng.random_range(ANGLES);
-            let a = if (a * 2.0).fract() == 0.0 {
-                a + 0.01
-            } else {
-                a
-            };
-            (a, r)
-        })
-        .collect();
+    let cases = draw_cases(ONTO_SEED, ONTO_DRAWS);
     let results: Vec<(f32, f32, Vec<String>)> = cases
         .par_iter()
         .map(|&(a, r)| {
