@@ -192,7 +192,8 @@ pub enum StuckCause {
     /// Other sloths hold every step it had, in both directions (it had
     /// already turned back).
     BoxedIn,
-    /// In the middle of a branch ↔ trunk transfer.
+    /// In the middle of a branch ↔ trunk transfer, with no step even once
+    /// the other sloths are ignored.
     TransferFailed,
     /// Other sloths hold every step it had ahead (without them a step passes).
     Crowded,
