@@ -98,7 +98,8 @@ struct Placement {
     pair: Option<(usize, Vec3, Vec3)>,
     /// A hind step on the trunk before the pair leaves it
     /// ([`Sloth::hind_closing`]): measured along the axis toward the
-    /// junction, landing no higher than the partner's grip.
+    /// junction, landing no higher than the partner's grip (from level
+    /// with it, no more than a girdle lead higher).
     closing: bool,
 }
 
@@ -505,8 +506,15 @@ impl Sloth {
         let opp = self.limbs[limb.opposite().index()].grip.point;
         let lead = (approx - opp).dot(p.travel);
         if p.closing {
-            // Up toward the partner, never past it (the pair lands level).
-            return lead <= 0.0;
+            // Up toward the partner, never past it (the pair lands level);
+            // from level, up to a girdle lead past it (`Sloth::hind_closing`).
+            let from_level = (p.cur - opp).dot(p.travel) > -cfg.min_step_m;
+            let cap = if from_level {
+                cfg.max_girdle_lead * cfg.max_step_m
+            } else {
+                0.0
+            };
+            return lead <= cap;
         }
         // A limb normally lands level with or ahead of its girdle partner. One
         // left more than a step behind it (transfer steps reach around a

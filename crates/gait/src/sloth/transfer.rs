@@ -487,7 +487,9 @@ impl Sloth {
     /// the trunk counted as backward and steps down as forward, so the hind
     /// grips drifted apart and down (trunk_branch at 0.2 m, 130°: 0.17 m
     /// apart, one of them always farther than a transfer step from the
-    /// pair's grips on the branch).
+    /// pair's grips on the branch). A hind limb level with its partner
+    /// and more than a step below the branch's root climbs toward the
+    /// junction too, up to a girdle lead past the partner.
     pub(super) fn hind_closing(
         &self,
         env: &LocoView<'_>,
@@ -520,7 +522,14 @@ impl Sloth {
         let toward = here.tangent * if du >= 0.0 { 1.0 } else { -1.0 };
         let partner = self.limbs[limb.opposite().index()].grip.point;
         let behind = (partner - self.limbs[li].grip.point).dot(toward);
-        (behind >= env.cfg.min_step_m).then_some(toward)
+        // Level with the partner, a hind limb more than a step below the
+        // branch's root climbs toward it, up to a girdle lead past the
+        // partner (which then closes up): level grips far below the root
+        // may have no pair step onto the branch (trunk_branch at 138°,
+        // 0.2 m: the hind grips 0.45 m below the junction, one of them
+        // 0.42 m from the pair's grips, a transfer step reaches 0.405 m).
+        let level = behind > -env.cfg.min_step_m && du.abs() > env.cfg.max_step_m;
+        (behind >= env.cfg.min_step_m || level).then_some(toward)
     }
 
     /// Swing progress of `transfer_to_branch`'s hind pair while it travels
