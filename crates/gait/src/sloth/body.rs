@@ -11,7 +11,7 @@ use slothsim_scene::{SupportId, SupportKind};
 use crate::path::project;
 
 use super::collide::{torso_box_meets, torso_penetration};
-use super::solve::KeyBits;
+use super::solve::{KeyBits, KeyEq, KeySink};
 use super::{LimbPhase, LimbState, LocoView, Sloth};
 
 /// The body turns up to this fast (rad/s) without smoothing lag; faster
@@ -89,11 +89,23 @@ const BODY_KEY_LEN: usize = 7 + 3 + 4 + 9 + 4 * 8;
 /// limb swings.
 type BodyKey = [u32; BODY_KEY_LEN];
 
-/// What [`Sloth::body_average_memo`] keeps of the sloth's last BodyAverage.
-#[derive(Clone, Copy, Debug, Default)]
+/// What [`Sloth::body_average_memo`] keeps of the sloth's last BodyAverage
+/// (its key written and compared in place).
+#[derive(Clone, Copy, Debug)]
 pub struct BodyMemo {
-    /// The state a BodyAverage left unchanged.
-    fixed: Option<BodyKey>,
+    /// The state before the last BodyAverage (with no limb swinging).
+    key: BodyKey,
+    /// That BodyAverage left the sloth unchanged: `key` is its state now.
+    fixed: bool,
+}
+
+impl Default for BodyMemo {
+    fn default() -> Self {
+        BodyMemo {
+            key: [0; BODY_KEY_LEN],
+            fixed: false,
+        }
+    }
 }
 
 #[inline]
@@ -302,21 +314,30 @@ impl Sloth {
     /// unchanged again (a sloth between steps: about 40 % of the sloth-frames
     /// of a crowd). `memo` belongs to this sloth, `env` and `dt`.
     pub fn body_average_memo(&mut self, env: &LocoView<'_>, dt: f32, memo: &mut BodyMemo) {
-        let key = self.body_key();
-        if key.is_some() && memo.fixed == key {
+        let armed = !self.any_swinging();
+        if armed && memo.fixed && self.body_key_is(&memo.key) {
             return;
         }
+        if armed {
+            let mut k = KeyBits::<BODY_KEY_LEN>::new();
+            self.body_key_into(&mut k);
+            memo.key = k.done();
+        }
         self.body_average(env, dt);
-        memo.fixed = key.filter(|k| self.body_key().as_ref() == Some(k));
+        memo.fixed = armed && self.body_key_is(&memo.key);
     }
 
-    /// The bits of every field [`Sloth::body_average`] reads or writes; `None`
-    /// while a limb swings.
-    fn body_key(&self) -> Option<BodyKey> {
-        if self.any_swinging() {
-            return None;
-        }
-        let mut k = KeyBits::<BODY_KEY_LEN>::new();
+    /// Whether the bits of every field [`Sloth::body_average`] reads or
+    /// writes (while no limb swings) are `key`'s.
+    fn body_key_is(&self, key: &BodyKey) -> bool {
+        let mut k = KeyEq::new(key);
+        self.body_key_into(&mut k);
+        k.done()
+    }
+
+    /// The bits of every field [`Sloth::body_average`] reads or writes while
+    /// no limb swings, in order.
+    fn body_key_into(&self, k: &mut impl KeySink) {
         k.f32s(&self.body_pos.to_array());
         k.f32s(&self.body_rot.to_array());
         k.f32s(&self.hang_side.to_array());
@@ -336,7 +357,6 @@ impl Sloth {
             k.u32s(&[l.grip.support.0]);
             k.f32s(&l.target.to_array());
         }
-        Some(k.done())
     }
 
     /// Formulas 6 and 7 for the current targets: (position, rotation).

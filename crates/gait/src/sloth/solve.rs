@@ -42,28 +42,55 @@ const SOLVE_KEY_LEN: usize = 7 + 4 * (3 + 16 + 4 + 4 + 1 + 3 + 3);
 /// The bits of the fields [`Sloth::solve_limbs`] reads or writes.
 type SolveKey = [u32; SOLVE_KEY_LEN];
 
-/// What [`Sloth::solve_limbs_memo`] keeps of the sloth's last CcdSolve.
-#[derive(Clone, Copy, Debug, Default)]
+/// What [`Sloth::solve_limbs_memo`] keeps of the sloth's last CcdSolve. The
+/// key is written in place before a solve and compared in place after it and
+/// in the next frame (no key is built to be compared, nor moved).
+#[derive(Clone, Copy, Debug)]
 pub struct SolveMemo {
-    /// The state a solve left unchanged and its sweep count; `None` after a
-    /// solve that changed something.
-    fixed: Option<(SolveKey, u32)>,
+    /// The state before the last solve (valid while `armed`).
+    key: SolveKey,
+    /// `key` holds the state before the last solve (no limb swung).
+    armed: bool,
+    /// That solve left the sloth unchanged: `key` is its state now.
+    fixed: bool,
+    /// That solve's sweep count.
+    iterations: u32,
+}
+
+impl Default for SolveMemo {
+    fn default() -> Self {
+        SolveMemo {
+            key: [0; SOLVE_KEY_LEN],
+            armed: false,
+            fixed: false,
+            iterations: 0,
+        }
+    }
 }
 
 impl SolveMemo {
-    /// The sweep count of the unchanged solve `key` matches, if it does.
-    pub(super) fn hit(&self, key: &Option<SolveKey>) -> Option<u32> {
-        match (&self.fixed, key) {
-            (Some((fixed, iterations)), Some(key)) => (fixed == key).then_some(*iterations),
-            _ => None,
+    /// The sweep count of the unchanged solve whose state `sloth` holds, if it
+    /// does (never while a limb swings: its target moves every frame).
+    pub(super) fn hit(&self, sloth: &Sloth) -> Option<u32> {
+        (self.fixed && !sloth.any_swinging() && sloth.solve_key_is(&self.key))
+            .then_some(self.iterations)
+    }
+
+    /// Before a solve of `sloth`: its state, where no limb swings.
+    fn arm(&mut self, sloth: &Sloth) {
+        self.fixed = false;
+        self.armed = !sloth.any_swinging();
+        if self.armed {
+            let mut k = KeyBits::<SOLVE_KEY_LEN>::new();
+            sloth.solve_key_into(&mut k);
+            self.key = k.done();
         }
     }
 
-    /// After a solve from `key`: kept where it left the sloth unchanged.
-    fn keep(&mut self, sloth: &Sloth, key: Option<SolveKey>, iterations: u32) {
-        self.fixed = key
-            .filter(|key| sloth.solve_key().as_ref() == Some(key))
-            .map(|key| (key, iterations));
+    /// After that solve: kept where it left the sloth unchanged.
+    fn keep(&mut self, sloth: &Sloth, iterations: u32) {
+        self.fixed = self.armed && sloth.solve_key_is(&self.key);
+        self.iterations = iterations;
     }
 }
 
@@ -95,6 +122,52 @@ impl AsMut<SolveMemo> for SolveMemo {
     }
 }
 
+/// Where a memo key's words go, in order: written ([`KeyBits`]) or compared
+/// with a key kept ([`KeyEq`]).
+pub(super) trait KeySink {
+    fn u32s(&mut self, v: &[u32]);
+    fn f32s(&mut self, v: &[f32]);
+}
+
+/// A memo key being compared with `k`: the differing bits of every word
+/// written are gathered (without a branch per word; nothing more is compared
+/// once some word differs).
+pub(super) struct KeyEq<'a, const N: usize> {
+    k: &'a [u32; N],
+    at: usize,
+    diff: u32,
+}
+
+impl<'a, const N: usize> KeyEq<'a, N> {
+    pub(super) fn new(k: &'a [u32; N]) -> Self {
+        KeyEq { k, at: 0, diff: 0 }
+    }
+
+    /// Whether every word written equals `k`'s (all `N` written).
+    pub(super) fn done(self) -> bool {
+        debug_assert!(self.diff != 0 || self.at == N);
+        self.diff == 0
+    }
+}
+
+impl<const N: usize> KeySink for KeyEq<'_, N> {
+    fn u32s(&mut self, v: &[u32]) {
+        if self.diff == 0 {
+            let k = &self.k[self.at..self.at + v.len()];
+            self.diff = k.iter().zip(v).fold(0, |d, (&w, &x)| d | (w ^ x));
+        }
+        self.at += v.len();
+    }
+
+    fn f32s(&mut self, v: &[f32]) {
+        if self.diff == 0 {
+            let k = &self.k[self.at..self.at + v.len()];
+            self.diff = k.iter().zip(v).fold(0, |d, (&w, x)| d | (w ^ x.to_bits()));
+        }
+        self.at += v.len();
+    }
+}
+
 /// A memo key being written: `N` words of bits, filled in order.
 pub(super) struct KeyBits<const N: usize> {
     k: [u32; N],
@@ -106,22 +179,24 @@ impl<const N: usize> KeyBits<N> {
         KeyBits { k: [0; N], at: 0 }
     }
 
-    pub(super) fn u32s(&mut self, v: &[u32]) {
-        self.k[self.at..self.at + v.len()].copy_from_slice(v);
-        self.at += v.len();
-    }
-
-    pub(super) fn f32s(&mut self, v: &[f32]) {
-        for (d, x) in self.k[self.at..self.at + v.len()].iter_mut().zip(v) {
-            *d = x.to_bits();
-        }
-        self.at += v.len();
-    }
-
     /// The key (every word written).
     pub(super) fn done(self) -> [u32; N] {
         debug_assert_eq!(self.at, N);
         self.k
+    }
+}
+
+impl<const N: usize> KeySink for KeyBits<N> {
+    fn u32s(&mut self, v: &[u32]) {
+        self.k[self.at..self.at + v.len()].copy_from_slice(v);
+        self.at += v.len();
+    }
+
+    fn f32s(&mut self, v: &[f32]) {
+        for (d, x) in self.k[self.at..self.at + v.len()].iter_mut().zip(v) {
+            *d = x.to_bits();
+        }
+        self.at += v.len();
     }
 }
 
@@ -214,22 +289,20 @@ impl Sloth {
     /// a 10,000-sloth crowd). `memo` belongs to this sloth and to `env` (start it
     /// with [`SolveMemo::default`]).
     pub fn solve_limbs_memo(&mut self, env: &LocoView<'_>, memo: &mut SolveMemo) -> u32 {
-        let key = self.solve_key();
-        match memo.hit(&key) {
+        match memo.hit(self) {
             Some(iterations) => iterations,
-            None => self.solve_limbs_kept(env, memo, key),
+            None => {
+                memo.arm(self);
+                self.solve_limbs_kept(env, memo)
+            }
         }
     }
 
-    /// [`Sloth::solve_limbs`] from the state `key`, remembered in `memo`.
-    fn solve_limbs_kept(
-        &mut self,
-        env: &LocoView<'_>,
-        memo: &mut SolveMemo,
-        key: Option<SolveKey>,
-    ) -> u32 {
+    /// [`Sloth::solve_limbs`] from the state `memo` was armed with, remembered
+    /// in `memo`.
+    fn solve_limbs_kept(&mut self, env: &LocoView<'_>, memo: &mut SolveMemo) -> u32 {
         let iterations = self.solve_limbs(env);
-        memo.keep(self, key, iterations);
+        memo.keep(self, iterations);
         iterations
     }
 
@@ -244,42 +317,46 @@ impl Sloth {
     ) -> u64 {
         assert_eq!(sloths.len(), memos.len(), "one memo per sloth");
         let mut sweeps = 0u64;
-        // A sloth to solve, waiting for a partner, and its state's key.
-        let mut pending: Option<(usize, Option<SolveKey>)> = None;
+        // A sloth to solve, waiting for a partner (its memo armed).
+        let mut pending: Option<usize> = None;
         for i in 0..sloths.len() {
-            let key = sloths[i].as_mut().solve_key();
-            if let Some(n) = memos[i].as_mut().hit(&key) {
+            let (sloth, memo) = (sloths[i].as_mut(), memos[i].as_mut());
+            if let Some(n) = memo.hit(sloth) {
                 sweeps += u64::from(n);
                 continue;
             }
-            let Some((j, key_j)) = pending.take() else {
-                pending = Some((i, key));
+            memo.arm(sloth);
+            let Some(j) = pending.take() else {
+                pending = Some(i);
                 continue;
             };
             let (s_lo, s_hi) = sloths.split_at_mut(i);
             let (m_lo, m_hi) = memos.split_at_mut(i);
             let (a, b) = (s_lo[j].as_mut(), s_hi[0].as_mut());
             let [na, nb] = Sloth::solve_limbs_pair(a, b, env);
-            m_lo[j].as_mut().keep(a, key_j, na);
-            m_hi[0].as_mut().keep(b, key, nb);
+            m_lo[j].as_mut().keep(a, na);
+            m_hi[0].as_mut().keep(b, nb);
             sweeps += u64::from(na) + u64::from(nb);
         }
-        if let Some((j, key_j)) = pending {
-            let n = sloths[j]
-                .as_mut()
-                .solve_limbs_kept(env, memos[j].as_mut(), key_j);
+        if let Some(j) = pending {
+            let n = sloths[j].as_mut().solve_limbs_kept(env, memos[j].as_mut());
             sweeps += u64::from(n);
         }
         sweeps
     }
 
-    /// The bits of every field [`Sloth::solve_limbs`] reads or writes; `None`
-    /// while a limb swings (its target moves every frame: never skipped).
-    fn solve_key(&self) -> Option<SolveKey> {
-        if self.any_swinging() {
-            return None;
-        }
-        let mut k = KeyBits::<SOLVE_KEY_LEN>::new();
+    /// Whether the bits of every field [`Sloth::solve_limbs`] reads or writes
+    /// are `key`'s.
+    fn solve_key_is(&self, key: &SolveKey) -> bool {
+        let mut k = KeyEq::new(key);
+        self.solve_key_into(&mut k);
+        k.done()
+    }
+
+    /// The bits of every field [`Sloth::solve_limbs`] reads or writes, in
+    /// order: the body, then per limb its target, pose, settled and cold-miss
+    /// targets, phase, root and effector.
+    fn solve_key_into(&self, k: &mut impl KeySink) {
         k.f32s(&self.body_pos.to_array());
         k.f32s(&self.body_rot.to_array());
         for l in &self.limbs {
@@ -297,7 +374,6 @@ impl Sloth {
             k.f32s(&l.root.to_array());
             k.f32s(&l.effector.to_array());
         }
-        Some(k.done())
     }
 
     /// The mean of the planted limbs' claw → target vectors over those off
