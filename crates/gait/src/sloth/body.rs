@@ -338,24 +338,24 @@ impl Sloth {
     /// The bits of every field [`Sloth::body_average`] reads or writes while
     /// no limb swings, in order.
     fn body_key_into(&self, k: &mut impl KeySink) {
-        k.f32s(&self.body_pos.to_array());
-        k.f32s(&self.body_rot.to_array());
-        k.f32s(&self.hang_side.to_array());
-        k.f32s(&self.body_shift.to_array());
-        k.u32s(&[self.hang_trunk.map_or(u32::MAX, |t| t.0)]);
+        k.f32s(self.body_pos.to_array());
+        k.f32s(self.body_rot.to_array());
+        k.f32s(self.hang_side.to_array());
+        k.f32s(self.body_shift.to_array());
+        k.u32s([self.hang_trunk.map_or(u32::MAX, |t| t.0)]);
         match self.transfer {
             Some(t) => {
-                k.u32s(&[1, t.to.0, t.trunk.0]);
-                k.f32s(&t.side.to_array());
-                k.f32s(&t.away.to_array());
+                k.u32s([1, t.to.0, t.trunk.0]);
+                k.f32s(t.side.to_array());
+                k.f32s(t.away.to_array());
             }
-            None => k.u32s(&[0; 9]),
+            None => k.u32s([0; 9]),
         }
         for l in &self.limbs {
-            k.u32s(&[l.phase as u32]);
-            k.f32s(&l.grip.point.to_array());
-            k.u32s(&[l.grip.support.0]);
-            k.f32s(&l.target.to_array());
+            k.u32s([l.phase as u32]);
+            k.f32s(l.grip.point.to_array());
+            k.u32s([l.grip.support.0]);
+            k.f32s(l.target.to_array());
         }
     }
 

@@ -125,8 +125,8 @@ impl AsMut<SolveMemo> for SolveMemo {
 /// Where a memo key's words go, in order: written ([`KeyBits`]) or compared
 /// with a key kept ([`KeyEq`]).
 pub(super) trait KeySink {
-    fn u32s(&mut self, v: &[u32]);
-    fn f32s(&mut self, v: &[f32]);
+    fn u32s<const M: usize>(&mut self, v: [u32; M]);
+    fn f32s<const M: usize>(&mut self, v: [f32; M]);
 }
 
 /// A memo key being compared with `k`: the differing bits of every word
@@ -151,20 +151,16 @@ impl<'a, const N: usize> KeyEq<'a, N> {
 }
 
 impl<const N: usize> KeySink for KeyEq<'_, N> {
-    fn u32s(&mut self, v: &[u32]) {
+    fn u32s<const M: usize>(&mut self, v: [u32; M]) {
         if self.diff == 0 {
-            let k = &self.k[self.at..self.at + v.len()];
-            self.diff = k.iter().zip(v).fold(0, |d, (&w, &x)| d | (w ^ x));
+            let k = &self.k[self.at..self.at + M];
+            self.diff = k.iter().zip(v).fold(0, |d, (&w, x)| d | (w ^ x));
         }
-        self.at += v.len();
+        self.at += M;
     }
 
-    fn f32s(&mut self, v: &[f32]) {
-        if self.diff == 0 {
-            let k = &self.k[self.at..self.at + v.len()];
-            self.diff = k.iter().zip(v).fold(0, |d, (&w, x)| d | (w ^ x.to_bits()));
-        }
-        self.at += v.len();
+    fn f32s<const M: usize>(&mut self, v: [f32; M]) {
+        self.u32s(v.map(f32::to_bits));
     }
 }
 
@@ -187,16 +183,13 @@ impl<const N: usize> KeyBits<N> {
 }
 
 impl<const N: usize> KeySink for KeyBits<N> {
-    fn u32s(&mut self, v: &[u32]) {
-        self.k[self.at..self.at + v.len()].copy_from_slice(v);
-        self.at += v.len();
+    fn u32s<const M: usize>(&mut self, v: [u32; M]) {
+        self.k[self.at..self.at + M].copy_from_slice(&v);
+        self.at += M;
     }
 
-    fn f32s(&mut self, v: &[f32]) {
-        for (d, x) in self.k[self.at..self.at + v.len()].iter_mut().zip(v) {
-            *d = x.to_bits();
-        }
-        self.at += v.len();
+    fn f32s<const M: usize>(&mut self, v: [f32; M]) {
+        self.u32s(v.map(f32::to_bits));
     }
 }
 
@@ -357,22 +350,22 @@ impl Sloth {
     /// order: the body, then per limb its target, pose, settled and cold-miss
     /// targets, phase, root and effector.
     fn solve_key_into(&self, k: &mut impl KeySink) {
-        k.f32s(&self.body_pos.to_array());
-        k.f32s(&self.body_rot.to_array());
+        k.f32s(self.body_pos.to_array());
+        k.f32s(self.body_rot.to_array());
         for l in &self.limbs {
-            k.f32s(&l.target.to_array());
+            k.f32s(l.target.to_array());
             for q in l.pose.0 {
-                k.f32s(&q.to_array());
+                k.f32s(q.to_array());
             }
             for v in [l.settled_ls, l.cold_miss_ls] {
                 match v {
-                    Some(t) => k.f32s(&[1.0, t.x, t.y, t.z]),
-                    None => k.f32s(&[0.0; 4]),
+                    Some(t) => k.f32s([1.0, t.x, t.y, t.z]),
+                    None => k.f32s([0.0; 4]),
                 }
             }
-            k.f32s(&[l.phase as u32 as f32]);
-            k.f32s(&l.root.to_array());
-            k.f32s(&l.effector.to_array());
+            k.f32s([l.phase as u32 as f32]);
+            k.f32s(l.root.to_array());
+            k.f32s(l.effector.to_array());
         }
     }
 
