@@ -258,8 +258,11 @@ impl Sloth {
                 }
             }
         }
+        // How far the last solve left a holding claw short (nothing below
+        // changes the claws or the grips).
+        let short = self.holding_short();
         if self.any_swinging() {
-            self.update_shift_gain(env, dt);
+            self.update_shift_gain(env, dt, short);
         }
         // Formula 7's position is already continuous (swing arcs are), so it
         // is used as is: lagging it would pull planted limbs off their grips.
@@ -277,7 +280,6 @@ impl Sloth {
         // not see): the shift backs off at once by as much as the claw is
         // short beyond SHIFT_SHORT_M, and its gain with it, so the claw holds
         // again in the next frame instead of while the gain fades.
-        let short = self.holding_short();
         if short > SHIFT_SHORT_M && aim != Vec3::ZERO {
             let cap = (self.body_shift.length() - (short - SHIFT_SHORT_M)).max(0.0);
             let len = aim.length();
@@ -464,12 +466,12 @@ impl Sloth {
     /// [`SHIFT_SHORT_M`] short of its grip by the last solve (joint limits the
     /// reach guard does not see), else rises toward 1, at
     /// [`SHIFT_GAIN_RATE`] per second either way.
-    fn update_shift_gain(&mut self, env: &LocoView<'_>, dt: f32) {
+    /// `short`: [`Sloth::holding_short`].
+    fn update_shift_gain(&mut self, env: &LocoView<'_>, dt: f32, short: f32) {
         let allowed = self.transfer.is_none()
             && self.turn.is_none()
             && self.hang_trunk.is_none()
             && self.trunk_weights(env).iter().all(|&w| w == 0.0);
-        let short = self.holding_short();
         let step = SHIFT_GAIN_RATE * dt;
         self.shift_gain = if !allowed || short > SHIFT_SHORT_M {
             (self.shift_gain - step).max(0.0)
