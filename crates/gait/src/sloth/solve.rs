@@ -95,15 +95,23 @@ impl SolveMemo {
 }
 
 /// What [`Sloth::solve_limbs`] computes before its IK: each limb's chain root,
-/// target (world and root space) and whether it stays settled.
+/// target (world space; [`SolvePrep::target_ls`] in its root's frame) and
+/// whether it stays settled.
 struct SolvePrep {
     roots: [RootTransform; 4],
     targets: [Vec3; 4],
-    targets_ls: [Vec3; 4],
     settled: [bool; 4],
 }
 
 impl SolvePrep {
+    /// Limb `li`'s target in its chain-root frame: only where a settled or
+    /// cold-miss target is compared or kept (the SIMD lanes form their own).
+    fn target_ls(&self, li: usize) -> Vec3 {
+        self.roots[li]
+            .inverse_transform_point(self.targets[li].into())
+            .into()
+    }
+
     /// Nothing to solve: every limb keeps its settled pose.
     fn all_settled(&self) -> bool {
         self.settled.iter().all(|&s| s)
@@ -396,20 +404,18 @@ impl Sloth {
         let roots: [RootTransform; 4] =
             std::array::from_fn(|li| env.rig.root_ws(li, self.body_pos, self.body_rot));
         let targets = self.targets();
-        let targets_ls: [Vec3; 4] =
-            std::array::from_fn(|li| roots[li].inverse_transform_point(targets[li].into()).into());
         // A limb that could not reach its target keeps its settled pose while
         // the target stays put in its root frame (a resting sloth): solving
         // again would only repeat the polish of the last frame.
         let settled: [bool; 4] = std::array::from_fn(|li| {
-            self.limbs[li]
-                .settled_ls
-                .is_some_and(|t| t.distance_squared(targets_ls[li]) <= SETTLED_MOVE * SETTLED_MOVE)
+            self.limbs[li].settled_ls.is_some_and(|t| {
+                let target_ls: Vec3 = roots[li].inverse_transform_point(targets[li].into()).into();
+                t.distance_squared(target_ls) <= SETTLED_MOVE * SETTLED_MOVE
+            })
         });
         SolvePrep {
             roots,
             targets,
-            targets_ls,
             settled,
         }
     }
@@ -457,12 +463,7 @@ impl Sloth {
         prep: &SolvePrep,
         solved: Option<([ChainPose; 4], [CcdResult; 4])>,
     ) -> u32 {
-        let SolvePrep {
-            roots,
-            targets_ls,
-            settled,
-            ..
-        } = *prep;
+        let SolvePrep { roots, settled, .. } = *prep;
         let mut iterations = 0;
         for li in 0..4 {
             let root = roots[li];
@@ -500,7 +501,7 @@ impl Sloth {
                 // settled until its target moves), but not again near where
                 // one failed.
                 let tried_here = l.cold_miss_ls.is_some_and(|t| {
-                    t.distance_squared(targets_ls[li]) <= COLD_RETRY_MOVE * COLD_RETRY_MOVE
+                    t.distance_squared(prep.target_ls(li)) <= COLD_RETRY_MOVE * COLD_RETRY_MOVE
                 });
                 if l.phase != LimbPhase::Swinging && r.error > STANCE_IK_TOLERANCE && !tried_here {
                     let mut cold = ChainPose::NEUTRAL;
@@ -508,13 +509,13 @@ impl Sloth {
                         slothsim_rig::solve(&env.rig.chains[li], root, l.target, &mut cold, params);
                     iterations += c.iterations;
                     l.cold_miss_ls =
-                        (c.error > r.error - COLD_RETRY_GAIN).then_some(targets_ls[li]);
+                        (c.error > r.error - COLD_RETRY_GAIN).then(|| prep.target_ls(li));
                     if c.error < r.error {
                         l.pose = cold;
                         r = c;
                     }
                 }
-                l.settled_ls = (r.error > params.tolerance).then_some(targets_ls[li]);
+                l.settled_ls = (r.error > params.tolerance).then(|| prep.target_ls(li));
             }
             l.root = root.position.into();
         }
