@@ -11,7 +11,7 @@ use slothsim_scene::{SupportId, SupportKind};
 use crate::path::project;
 
 use super::collide::{torso_box_meets, torso_penetration};
-use super::solve::KeyBits;
+use super::solve::{KeyBits, KeyEq, KeySink};
 use super::{LimbPhase, LimbState, LocoView, Sloth};
 
 /// The body turns up to this fast (rad/s) without smoothing lag; faster
@@ -89,11 +89,23 @@ const BODY_KEY_LEN: usize = 7 + 3 + 4 + 9 + 4 * 8;
 /// limb swings.
 type BodyKey = [u32; BODY_KEY_LEN];
 
-/// What [`Sloth::body_average_memo`] keeps of the sloth's last BodyAverage.
-#[derive(Clone, Copy, Debug, Default)]
+/// What [`Sloth::body_average_memo`] keeps of the sloth's last BodyAverage
+/// (its key written and compared in place).
+#[derive(Clone, Copy, Debug)]
 pub struct BodyMemo {
-    /// The state a BodyAverage left unchanged.
-    fixed: Option<BodyKey>,
+    /// The state before the last BodyAverage (with no limb swinging).
+    key: BodyKey,
+    /// That BodyAverage left the sloth unchanged: `key` is its state now.
+    fixed: bool,
+}
+
+impl Default for BodyMemo {
+    fn default() -> Self {
+        BodyMemo {
+            key: [0; BODY_KEY_LEN],
+            fixed: false,
+        }
+    }
 }
 
 #[inline]
@@ -246,8 +258,11 @@ impl Sloth {
                 }
             }
         }
+        // How far the last solve left a holding claw short (nothing below
+        // changes the claws or the grips).
+        let short = self.holding_short();
         if self.any_swinging() {
-            self.update_shift_gain(env, dt);
+            self.update_shift_gain(env, dt, short);
         }
         // Formula 7's position is already continuous (swing arcs are), so it
         // is used as is: lagging it would pull planted limbs off their grips.
@@ -265,7 +280,6 @@ impl Sloth {
         // not see): the shift backs off at once by as much as the claw is
         // short beyond SHIFT_SHORT_M, and its gain with it, so the claw holds
         // again in the next frame instead of while the gain fades.
-        let short = self.holding_short();
         if short > SHIFT_SHORT_M && aim != Vec3::ZERO {
             let cap = (self.body_shift.length() - (short - SHIFT_SHORT_M)).max(0.0);
             let len = aim.length();
@@ -302,41 +316,49 @@ impl Sloth {
     /// unchanged again (a sloth between steps: about 40 % of the sloth-frames
     /// of a crowd). `memo` belongs to this sloth, `env` and `dt`.
     pub fn body_average_memo(&mut self, env: &LocoView<'_>, dt: f32, memo: &mut BodyMemo) {
-        let key = self.body_key();
-        if key.is_some() && memo.fixed == key {
+        let armed = !self.any_swinging();
+        if armed && memo.fixed && self.body_key_is(&memo.key) {
             return;
         }
+        if armed {
+            let mut k = KeyBits::<BODY_KEY_LEN>::new();
+            self.body_key_into(&mut k);
+            memo.key = k.done();
+        }
         self.body_average(env, dt);
-        memo.fixed = key.filter(|k| self.body_key().as_ref() == Some(k));
+        memo.fixed = armed && self.body_key_is(&memo.key);
     }
 
-    /// The bits of every field [`Sloth::body_average`] reads or writes; `None`
-    /// while a limb swings.
-    fn body_key(&self) -> Option<BodyKey> {
-        if self.any_swinging() {
-            return None;
-        }
-        let mut k = KeyBits::<BODY_KEY_LEN>::new();
-        k.f32s(&self.body_pos.to_array());
-        k.f32s(&self.body_rot.to_array());
-        k.f32s(&self.hang_side.to_array());
-        k.f32s(&self.body_shift.to_array());
-        k.u32s(&[self.hang_trunk.map_or(u32::MAX, |t| t.0)]);
+    /// Whether the bits of every field [`Sloth::body_average`] reads or
+    /// writes (while no limb swings) are `key`'s.
+    fn body_key_is(&self, key: &BodyKey) -> bool {
+        let mut k = KeyEq::new(key);
+        self.body_key_into(&mut k);
+        k.done()
+    }
+
+    /// The bits of every field [`Sloth::body_average`] reads or writes while
+    /// no limb swings, in order.
+    fn body_key_into(&self, k: &mut impl KeySink) {
+        k.f32s(self.body_pos.to_array());
+        k.f32s(self.body_rot.to_array());
+        k.f32s(self.hang_side.to_array());
+        k.f32s(self.body_shift.to_array());
+        k.u32s([self.hang_trunk.map_or(u32::MAX, |t| t.0)]);
         match self.transfer {
             Some(t) => {
-                k.u32s(&[1, t.to.0, t.trunk.0]);
-                k.f32s(&t.side.to_array());
-                k.f32s(&t.away.to_array());
+                k.u32s([1, t.to.0, t.trunk.0]);
+                k.f32s(t.side.to_array());
+                k.f32s(t.away.to_array());
             }
-            None => k.u32s(&[0; 9]),
+            None => k.u32s([0; 9]),
         }
         for l in &self.limbs {
-            k.u32s(&[l.phase as u32]);
-            k.f32s(&l.grip.point.to_array());
-            k.u32s(&[l.grip.support.0]);
-            k.f32s(&l.target.to_array());
+            k.u32s([l.phase as u32]);
+            k.f32s(l.grip.point.to_array());
+            k.u32s([l.grip.support.0]);
+            k.f32s(l.target.to_array());
         }
-        Some(k.done())
     }
 
     /// Formulas 6 and 7 for the current targets: (position, rotation).
@@ -444,12 +466,12 @@ impl Sloth {
     /// [`SHIFT_SHORT_M`] short of its grip by the last solve (joint limits the
     /// reach guard does not see), else rises toward 1, at
     /// [`SHIFT_GAIN_RATE`] per second either way.
-    fn update_shift_gain(&mut self, env: &LocoView<'_>, dt: f32) {
+    /// `short`: [`Sloth::holding_short`].
+    fn update_shift_gain(&mut self, env: &LocoView<'_>, dt: f32, short: f32) {
         let allowed = self.transfer.is_none()
             && self.turn.is_none()
             && self.hang_trunk.is_none()
             && self.trunk_weights(env).iter().all(|&w| w == 0.0);
-        let short = self.holding_short();
         let step = SHIFT_GAIN_RATE * dt;
         self.shift_gain = if !allowed || short > SHIFT_SHORT_M {
             (self.shift_gain - step).max(0.0)

@@ -141,6 +141,38 @@ struct StanceCheck {
     roots: [RootTransform; 4],
 }
 
+/// A [`StanceCheck`] without its chain roots: all that the body tests of a
+/// step's arc ([`Sloth::arc_body_penetrates`]) and the head-up checks read.
+#[derive(Clone, Copy)]
+struct PlacedStance {
+    grips: [Vec3; 4],
+    tol: [f32; 4],
+    pos: Vec3,
+    rot: Quat,
+    offset: BodyOffset,
+}
+
+impl PlacedStance {
+    /// The stance with the chain roots of its body, for its IK checks.
+    fn with_roots(self, env: &LocoView<'_>) -> StanceCheck {
+        let PlacedStance {
+            grips,
+            tol,
+            pos,
+            rot,
+            offset,
+        } = self;
+        StanceCheck {
+            grips,
+            tol,
+            pos,
+            rot,
+            offset,
+            roots: std::array::from_fn(|i| env.rig.root_ws(i, pos, rot)),
+        }
+    }
+}
+
 impl Sloth {
     /// Whether limb `li` can step to `grip` (surface `normal`): with the
     /// stepping limb at points along its arc the others still reach their
@@ -229,10 +261,10 @@ impl Sloth {
             let mut offset = body_offset(env, weights);
             offset.hind_back_m = offset_back;
             let me = if at.is_none() { after } else { self };
-            me.stance_check(env, grips, tol, offset)
+            me.place_stance(env, grips, tol, offset)
         };
         let stances: [StanceCheck; STANCE_CHECKS] =
-            std::array::from_fn(|k| stance_at(SWING_CHECKS.get(k).copied()));
+            std::array::from_fn(|k| stance_at(SWING_CHECKS.get(k).copied()).with_roots(env));
         // A step between a branch and a trunk rolls the body fast: between
         // the IK checks' arc points it could enter a support the points do
         // not show, so the body is also checked at every 5 % of the arc. So
@@ -265,10 +297,12 @@ impl Sloth {
         let (lf, rf) = (Limb::LF.index(), Limb::RF.index());
         if onto_trunk && held(lf) == held(rf) && scene.support(held(lf)).kind == SupportKind::Trunk
         {
-            let head_up = |st: &StanceCheck| head_above_hips(env, st.pos, st.rot);
-            if !stances.iter().all(head_up)
-                || !(0..HEAD_CHECKS)
-                    .all(|k| head_up(&stance_at(Some(k as f32 / HEAD_CHECKS as f32))))
+            let head_up = |pos: Vec3, rot: Quat| head_above_hips(env, pos, rot);
+            if !stances.iter().all(|st| head_up(st.pos, st.rot))
+                || !(0..HEAD_CHECKS).all(|k| {
+                    let st = stance_at(Some(k as f32 / HEAD_CHECKS as f32));
+                    head_up(st.pos, st.rot)
+                })
             {
                 return false;
             }
@@ -336,7 +370,7 @@ impl Sloth {
     fn arc_body_penetrates(
         &self,
         env: &LocoView<'_>,
-        mut stance: impl FnMut(Option<f32>) -> StanceCheck,
+        mut stance: impl FnMut(Option<f32>) -> PlacedStance,
     ) -> bool {
         let bodies: [(Vec3, Quat); TRANSFER_BODY_CHECKS.len()] = std::array::from_fn(|k| {
             let st = stance(Some(TRANSFER_BODY_CHECKS[k]));
@@ -421,28 +455,27 @@ impl Sloth {
                     tol[l] = f32::INFINITY;
                 }
             }
-            self.stance_check(env, grips, tol, offset)
+            self.place_stance(env, grips, tol, offset).with_roots(env)
         });
         self.stances_pass(env, &stances)
     }
 
     /// The stance of IK targets `grips` (claws within `tol`) with the body
     /// they imply.
-    fn stance_check(
+    fn place_stance(
         &self,
         env: &LocoView<'_>,
         grips: [Vec3; 4],
         tol: [f32; 4],
         offset: BodyOffset,
-    ) -> StanceCheck {
+    ) -> PlacedStance {
         let (pos, rot) = self.body_for_targets(env, &grips, offset, BodySide::Body);
-        StanceCheck {
+        PlacedStance {
             grips,
             tol,
             pos,
             rot,
             offset,
-            roots: std::array::from_fn(|i| env.rig.root_ws(i, pos, rot)),
         }
     }
 
@@ -492,17 +525,16 @@ impl Sloth {
             let (f, up) = self.turn_frame(&turning, &landed, at.unwrap_or(1.0));
             let mean = (grips[0] + grips[1] + grips[2] + grips[3]) * 0.25;
             let (pos, rot) = (mean - up * offset.metres, rotation_from(f, up));
-            StanceCheck {
+            PlacedStance {
                 grips,
                 tol,
                 pos,
                 rot,
                 offset,
-                roots: std::array::from_fn(|i| env.rig.root_ws(i, pos, rot)),
             }
         };
         let stances: [StanceCheck; STANCE_CHECKS] =
-            std::array::from_fn(|k| stance(SWING_CHECKS.get(k).copied()));
+            std::array::from_fn(|k| stance(SWING_CHECKS.get(k).copied()).with_roots(env));
         if self.arc_body_penetrates(env, &stance) {
             return false;
         }

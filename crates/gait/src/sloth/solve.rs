@@ -42,41 +42,76 @@ const SOLVE_KEY_LEN: usize = 7 + 4 * (3 + 16 + 4 + 4 + 1 + 3 + 3);
 /// The bits of the fields [`Sloth::solve_limbs`] reads or writes.
 type SolveKey = [u32; SOLVE_KEY_LEN];
 
-/// What [`Sloth::solve_limbs_memo`] keeps of the sloth's last CcdSolve.
-#[derive(Clone, Copy, Debug, Default)]
+/// What [`Sloth::solve_limbs_memo`] keeps of the sloth's last CcdSolve. The
+/// key is written in place before a solve and compared in place after it and
+/// in the next frame (no key is built to be compared, nor moved).
+#[derive(Clone, Copy, Debug)]
 pub struct SolveMemo {
-    /// The state a solve left unchanged and its sweep count; `None` after a
-    /// solve that changed something.
-    fixed: Option<(SolveKey, u32)>,
+    /// The state before the last solve (valid while `armed`).
+    key: SolveKey,
+    /// `key` holds the state before the last solve (no limb swung).
+    armed: bool,
+    /// That solve left the sloth unchanged: `key` is its state now.
+    fixed: bool,
+    /// That solve's sweep count.
+    iterations: u32,
+}
+
+impl Default for SolveMemo {
+    fn default() -> Self {
+        SolveMemo {
+            key: [0; SOLVE_KEY_LEN],
+            armed: false,
+            fixed: false,
+            iterations: 0,
+        }
+    }
 }
 
 impl SolveMemo {
-    /// The sweep count of the unchanged solve `key` matches, if it does.
-    pub(super) fn hit(&self, key: &Option<SolveKey>) -> Option<u32> {
-        match (&self.fixed, key) {
-            (Some((fixed, iterations)), Some(key)) => (fixed == key).then_some(*iterations),
-            _ => None,
+    /// The sweep count of the unchanged solve whose state `sloth` holds, if it
+    /// does (never while a limb swings: its target moves every frame).
+    pub(super) fn hit(&self, sloth: &Sloth) -> Option<u32> {
+        (self.fixed && !sloth.any_swinging() && sloth.solve_key_is(&self.key))
+            .then_some(self.iterations)
+    }
+
+    /// Before a solve of `sloth`: its state, where no limb swings.
+    fn arm(&mut self, sloth: &Sloth) {
+        self.fixed = false;
+        self.armed = !sloth.any_swinging();
+        if self.armed {
+            let mut k = KeyBits::<SOLVE_KEY_LEN>::new();
+            sloth.solve_key_into(&mut k);
+            self.key = k.done();
         }
     }
 
-    /// After a solve from `key`: kept where it left the sloth unchanged.
-    fn keep(&mut self, sloth: &Sloth, key: Option<SolveKey>, iterations: u32) {
-        self.fixed = key
-            .filter(|key| sloth.solve_key().as_ref() == Some(key))
-            .map(|key| (key, iterations));
+    /// After that solve: kept where it left the sloth unchanged.
+    fn keep(&mut self, sloth: &Sloth, iterations: u32) {
+        self.fixed = self.armed && sloth.solve_key_is(&self.key);
+        self.iterations = iterations;
     }
 }
 
 /// What [`Sloth::solve_limbs`] computes before its IK: each limb's chain root,
-/// target (world and root space) and whether it stays settled.
+/// target (world space; [`SolvePrep::target_ls`] in its root's frame) and
+/// whether it stays settled.
 struct SolvePrep {
     roots: [RootTransform; 4],
     targets: [Vec3; 4],
-    targets_ls: [Vec3; 4],
     settled: [bool; 4],
 }
 
 impl SolvePrep {
+    /// Limb `li`'s target in its chain-root frame: only where a settled or
+    /// cold-miss target is compared or kept (the SIMD lanes form their own).
+    fn target_ls(&self, li: usize) -> Vec3 {
+        self.roots[li]
+            .inverse_transform_point(self.targets[li].into())
+            .into()
+    }
+
     /// Nothing to solve: every limb keeps its settled pose.
     fn all_settled(&self) -> bool {
         self.settled.iter().all(|&s| s)
@@ -95,6 +130,48 @@ impl AsMut<SolveMemo> for SolveMemo {
     }
 }
 
+/// Where a memo key's words go, in order: written ([`KeyBits`]) or compared
+/// with a key kept ([`KeyEq`]).
+pub(super) trait KeySink {
+    fn u32s<const M: usize>(&mut self, v: [u32; M]);
+    fn f32s<const M: usize>(&mut self, v: [f32; M]);
+}
+
+/// A memo key being compared with `k`: the differing bits of every word
+/// written are gathered (without a branch per word; nothing more is compared
+/// once some word differs).
+pub(super) struct KeyEq<'a, const N: usize> {
+    k: &'a [u32; N],
+    at: usize,
+    diff: u32,
+}
+
+impl<'a, const N: usize> KeyEq<'a, N> {
+    pub(super) fn new(k: &'a [u32; N]) -> Self {
+        KeyEq { k, at: 0, diff: 0 }
+    }
+
+    /// Whether every word written equals `k`'s (all `N` written).
+    pub(super) fn done(self) -> bool {
+        debug_assert!(self.diff != 0 || self.at == N);
+        self.diff == 0
+    }
+}
+
+impl<const N: usize> KeySink for KeyEq<'_, N> {
+    fn u32s<const M: usize>(&mut self, v: [u32; M]) {
+        if self.diff == 0 {
+            let k = &self.k[self.at..self.at + M];
+            self.diff = k.iter().zip(v).fold(0, |d, (&w, x)| d | (w ^ x));
+        }
+        self.at += M;
+    }
+
+    fn f32s<const M: usize>(&mut self, v: [f32; M]) {
+        self.u32s(v.map(f32::to_bits));
+    }
+}
+
 /// A memo key being written: `N` words of bits, filled in order.
 pub(super) struct KeyBits<const N: usize> {
     k: [u32; N],
@@ -106,22 +183,21 @@ impl<const N: usize> KeyBits<N> {
         KeyBits { k: [0; N], at: 0 }
     }
 
-    pub(super) fn u32s(&mut self, v: &[u32]) {
-        self.k[self.at..self.at + v.len()].copy_from_slice(v);
-        self.at += v.len();
-    }
-
-    pub(super) fn f32s(&mut self, v: &[f32]) {
-        for (d, x) in self.k[self.at..self.at + v.len()].iter_mut().zip(v) {
-            *d = x.to_bits();
-        }
-        self.at += v.len();
-    }
-
     /// The key (every word written).
     pub(super) fn done(self) -> [u32; N] {
         debug_assert_eq!(self.at, N);
         self.k
+    }
+}
+
+impl<const N: usize> KeySink for KeyBits<N> {
+    fn u32s<const M: usize>(&mut self, v: [u32; M]) {
+        self.k[self.at..self.at + M].copy_from_slice(&v);
+        self.at += M;
+    }
+
+    fn f32s<const M: usize>(&mut self, v: [f32; M]) {
+        self.u32s(v.map(f32::to_bits));
     }
 }
 
@@ -214,22 +290,20 @@ impl Sloth {
     /// a 10,000-sloth crowd). `memo` belongs to this sloth and to `env` (start it
     /// with [`SolveMemo::default`]).
     pub fn solve_limbs_memo(&mut self, env: &LocoView<'_>, memo: &mut SolveMemo) -> u32 {
-        let key = self.solve_key();
-        match memo.hit(&key) {
+        match memo.hit(self) {
             Some(iterations) => iterations,
-            None => self.solve_limbs_kept(env, memo, key),
+            None => {
+                memo.arm(self);
+                self.solve_limbs_kept(env, memo)
+            }
         }
     }
 
-    /// [`Sloth::solve_limbs`] from the state `key`, remembered in `memo`.
-    fn solve_limbs_kept(
-        &mut self,
-        env: &LocoView<'_>,
-        memo: &mut SolveMemo,
-        key: Option<SolveKey>,
-    ) -> u32 {
+    /// [`Sloth::solve_limbs`] from the state `memo` was armed with, remembered
+    /// in `memo`.
+    fn solve_limbs_kept(&mut self, env: &LocoView<'_>, memo: &mut SolveMemo) -> u32 {
         let iterations = self.solve_limbs(env);
-        memo.keep(self, key, iterations);
+        memo.keep(self, iterations);
         iterations
     }
 
@@ -244,60 +318,63 @@ impl Sloth {
     ) -> u64 {
         assert_eq!(sloths.len(), memos.len(), "one memo per sloth");
         let mut sweeps = 0u64;
-        // A sloth to solve, waiting for a partner, and its state's key.
-        let mut pending: Option<(usize, Option<SolveKey>)> = None;
+        // A sloth to solve, waiting for a partner (its memo armed).
+        let mut pending: Option<usize> = None;
         for i in 0..sloths.len() {
-            let key = sloths[i].as_mut().solve_key();
-            if let Some(n) = memos[i].as_mut().hit(&key) {
+            let (sloth, memo) = (sloths[i].as_mut(), memos[i].as_mut());
+            if let Some(n) = memo.hit(sloth) {
                 sweeps += u64::from(n);
                 continue;
             }
-            let Some((j, key_j)) = pending.take() else {
-                pending = Some((i, key));
+            memo.arm(sloth);
+            let Some(j) = pending.take() else {
+                pending = Some(i);
                 continue;
             };
             let (s_lo, s_hi) = sloths.split_at_mut(i);
             let (m_lo, m_hi) = memos.split_at_mut(i);
             let (a, b) = (s_lo[j].as_mut(), s_hi[0].as_mut());
             let [na, nb] = Sloth::solve_limbs_pair(a, b, env);
-            m_lo[j].as_mut().keep(a, key_j, na);
-            m_hi[0].as_mut().keep(b, key, nb);
+            m_lo[j].as_mut().keep(a, na);
+            m_hi[0].as_mut().keep(b, nb);
             sweeps += u64::from(na) + u64::from(nb);
         }
-        if let Some((j, key_j)) = pending {
-            let n = sloths[j]
-                .as_mut()
-                .solve_limbs_kept(env, memos[j].as_mut(), key_j);
+        if let Some(j) = pending {
+            let n = sloths[j].as_mut().solve_limbs_kept(env, memos[j].as_mut());
             sweeps += u64::from(n);
         }
         sweeps
     }
 
-    /// The bits of every field [`Sloth::solve_limbs`] reads or writes; `None`
-    /// while a limb swings (its target moves every frame: never skipped).
-    fn solve_key(&self) -> Option<SolveKey> {
-        if self.any_swinging() {
-            return None;
-        }
-        let mut k = KeyBits::<SOLVE_KEY_LEN>::new();
-        k.f32s(&self.body_pos.to_array());
-        k.f32s(&self.body_rot.to_array());
+    /// Whether the bits of every field [`Sloth::solve_limbs`] reads or writes
+    /// are `key`'s.
+    fn solve_key_is(&self, key: &SolveKey) -> bool {
+        let mut k = KeyEq::new(key);
+        self.solve_key_into(&mut k);
+        k.done()
+    }
+
+    /// The bits of every field [`Sloth::solve_limbs`] reads or writes, in
+    /// order: the body, then per limb its target, pose, settled and cold-miss
+    /// targets, phase, root and effector.
+    fn solve_key_into(&self, k: &mut impl KeySink) {
+        k.f32s(self.body_pos.to_array());
+        k.f32s(self.body_rot.to_array());
         for l in &self.limbs {
-            k.f32s(&l.target.to_array());
+            k.f32s(l.target.to_array());
             for q in l.pose.0 {
-                k.f32s(&q.to_array());
+                k.f32s(q.to_array());
             }
             for v in [l.settled_ls, l.cold_miss_ls] {
                 match v {
-                    Some(t) => k.f32s(&[1.0, t.x, t.y, t.z]),
-                    None => k.f32s(&[0.0; 4]),
+                    Some(t) => k.f32s([1.0, t.x, t.y, t.z]),
+                    None => k.f32s([0.0; 4]),
                 }
             }
-            k.f32s(&[l.phase as u32 as f32]);
-            k.f32s(&l.root.to_array());
-            k.f32s(&l.effector.to_array());
+            k.f32s([l.phase as u32 as f32]);
+            k.f32s(l.root.to_array());
+            k.f32s(l.effector.to_array());
         }
-        Some(k.done())
     }
 
     /// The mean of the planted limbs' claw → target vectors over those off
@@ -327,20 +404,18 @@ impl Sloth {
         let roots: [RootTransform; 4] =
             std::array::from_fn(|li| env.rig.root_ws(li, self.body_pos, self.body_rot));
         let targets = self.targets();
-        let targets_ls: [Vec3; 4] =
-            std::array::from_fn(|li| roots[li].inverse_transform_point(targets[li].into()).into());
         // A limb that could not reach its target keeps its settled pose while
         // the target stays put in its root frame (a resting sloth): solving
         // again would only repeat the polish of the last frame.
         let settled: [bool; 4] = std::array::from_fn(|li| {
-            self.limbs[li]
-                .settled_ls
-                .is_some_and(|t| t.distance_squared(targets_ls[li]) <= SETTLED_MOVE * SETTLED_MOVE)
+            self.limbs[li].settled_ls.is_some_and(|t| {
+                let target_ls: Vec3 = roots[li].inverse_transform_point(targets[li].into()).into();
+                t.distance_squared(target_ls) <= SETTLED_MOVE * SETTLED_MOVE
+            })
         });
         SolvePrep {
             roots,
             targets,
-            targets_ls,
             settled,
         }
     }
@@ -388,12 +463,7 @@ impl Sloth {
         prep: &SolvePrep,
         solved: Option<([ChainPose; 4], [CcdResult; 4])>,
     ) -> u32 {
-        let SolvePrep {
-            roots,
-            targets_ls,
-            settled,
-            ..
-        } = *prep;
+        let SolvePrep { roots, settled, .. } = *prep;
         let mut iterations = 0;
         for li in 0..4 {
             let root = roots[li];
@@ -431,7 +501,7 @@ impl Sloth {
                 // settled until its target moves), but not again near where
                 // one failed.
                 let tried_here = l.cold_miss_ls.is_some_and(|t| {
-                    t.distance_squared(targets_ls[li]) <= COLD_RETRY_MOVE * COLD_RETRY_MOVE
+                    t.distance_squared(prep.target_ls(li)) <= COLD_RETRY_MOVE * COLD_RETRY_MOVE
                 });
                 if l.phase != LimbPhase::Swinging && r.error > STANCE_IK_TOLERANCE && !tried_here {
                     let mut cold = ChainPose::NEUTRAL;
@@ -439,13 +509,13 @@ impl Sloth {
                         slothsim_rig::solve(&env.rig.chains[li], root, l.target, &mut cold, params);
                     iterations += c.iterations;
                     l.cold_miss_ls =
-                        (c.error > r.error - COLD_RETRY_GAIN).then_some(targets_ls[li]);
+                        (c.error > r.error - COLD_RETRY_GAIN).then(|| prep.target_ls(li));
                     if c.error < r.error {
                         l.pose = cold;
                         r = c;
                     }
                 }
-                l.settled_ls = (r.error > params.tolerance).then_some(targets_ls[li]);
+                l.settled_ls = (r.error > params.tolerance).then(|| prep.target_ls(li));
             }
             l.root = root.position.into();
         }
