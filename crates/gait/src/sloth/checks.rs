@@ -339,6 +339,16 @@ impl Sloth {
         self.stances_pass(env, &stances)
     }
 
+    /// Whether every limb reaches the grip it holds, within its reach band
+    /// and the holding tolerance, with the body drawn at those grips now
+    /// (formulas 6, 7), and that body is clear of the supports.
+    pub(super) fn stance_holds(&self, env: &LocoView<'_>) -> bool {
+        let grips = self.limbs.map(|l| l.grip.point);
+        let offset = body_offset(env, self.trunk_weights(env));
+        let stance = self.stance_check(env, grips, [HOLD_IK_TOLERANCE; 4], offset);
+        self.stances_pass(env, &[stance])
+    }
+
     /// Whether a trunk among the supports the checks look at comes within a
     /// longest step of the torso: its swing can carry the body into that
     /// trunk between the IK checks' arc points (a crowd wanderer near a

@@ -6,8 +6,11 @@
 //! ones hold: `Sloth::own_search`) and starts again, from another stance,
 //! with the limb whose turn it is then, on that limb's side of the trunk;
 //! a stance locked on a trunk (the fore limbs too close above the hind
-//! limbs to step down) climbs a cycle and comes down spread. Wander mode
-//! has its own turn back and is not changed.
+//! limbs to step down) climbs a cycle and comes down spread. A transfer
+//! onto a trunk locked with one fore limb across, the other's trunk grip
+//! out of its reach, first turns its side toward that limb
+//! (`Sloth::turned_transfer_side`). Wander mode has its own turn back and
+//! is not changed.
 
 use serde::{Deserialize, Serialize};
 
@@ -32,11 +35,26 @@ pub struct Backoff {
 
 impl Sloth {
     /// Goal mode, no limb has found a step for two gait cycles: re-plan
-    /// instead of stopping. Starts a back-off, or ends one that is itself
-    /// stuck (toward the goal again). False once [`MAX_REPLANS`] are spent,
-    /// and always in wander mode: the sloth stops.
+    /// instead of stopping. Turns a transfer's side toward a fore limb left
+    /// behind (not counted: the turn is bounded by itself), else starts a
+    /// back-off, or ends one that is itself stuck (toward the goal again).
+    /// False once [`MAX_REPLANS`] are spent, and always in wander mode: the
+    /// sloth stops.
     pub(super) fn replan(&mut self, env: &LocoView<'_>) -> bool {
-        if self.wander || self.goal.is_none() || self.replans >= MAX_REPLANS {
+        if self.wander || self.goal.is_none() {
+            return false;
+        }
+        // transfer_to_trunk with one fore limb across and the other without
+        // a step onto the trunk: the transfer's side turns toward that limb
+        // (bounded by the turn itself, not counted among the re-plans).
+        if self.backoff.is_none()
+            && let Some(tr) = self.turned_transfer_side(env)
+        {
+            self.transfer = Some(tr);
+            self.failed_searches = 0;
+            return true;
+        }
+        if self.replans >= MAX_REPLANS {
             return false;
         }
         self.replans += 1;

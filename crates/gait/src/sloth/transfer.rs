@@ -3,7 +3,7 @@
 //! when a limb's search moves onto a support of the other kind and ends
 //! when all four limbs hold it; the hind pair leaves a trunk together.
 
-use glam::Vec3;
+use glam::{Quat, Vec3};
 use serde::{Deserialize, Serialize};
 use slothsim_rig::Limb;
 use slothsim_scene::{SupportId, SupportKind};
@@ -21,6 +21,17 @@ const TRANSFER_SIDE_ANGLE: f32 = std::f32::consts::FRAC_PI_3;
 /// more than this (metres): f32 rounding of the grips, a symmetric stance
 /// keeps the side chosen by the limb.
 const SIDE_CHOICE_SLACK_M: f32 = 1e-3;
+
+/// Re-planning a transfer onto a trunk half across (one fore limb on it, see
+/// [`Sloth::turned_transfer_side`]): the side turns on this grid (radians).
+const SIDE_TURN_STEP: f32 = 5.0 * std::f32::consts::PI / 180.0;
+
+/// … and at most this far in all from the side first chosen (radians):
+/// half the side's angle from the branch ([`TRANSFER_SIDE_ANGLE`]), so the
+/// body stays beside the branch, not below it (turned 50° at 149.6°, 0.2 m,
+/// the transfer went through but the body faced the trunk from under the
+/// branch and did not get down the trunk in time).
+const SIDE_TURN_MAX: f32 = TRANSFER_SIDE_ANGLE * 0.5;
 
 /// A change between a branch and a trunk in progress (SPEC `transfer_to_trunk`,
 /// `transfer_to_branch`). On the trunk the body faces it from `side`; while
@@ -54,6 +65,10 @@ pub struct Transfer {
     /// Times each of [`Self::stance_keys`] was taken again.
     #[serde(default)]
     pub stance_visits: [u8; STANCES_KEPT],
+    /// How far the side has turned about the trunk's axis since it was
+    /// chosen (radians, re-plans: [`Sloth::turned_transfer_side`]).
+    #[serde(default)]
+    pub side_turned: f32,
 }
 
 /// Stances a transfer remembers (see [`Transfer::stance_keys`]): a circle
@@ -209,6 +224,7 @@ impl Sloth {
             stance_keys,
             stance_visits,
             stance_count,
+            side_turned: 0.0,
         };
         let side = if onto_trunk && dir > 0.0 {
             let mirror = (2.0 * away * away.dot(side) - side).normalize_or(side);
@@ -243,6 +259,55 @@ impl Sloth {
             side
         };
         self.transfer = Some(transfer(side));
+    }
+
+    /// Re-planning a transfer onto a trunk locked half way (goal mode, issue
+    /// 24): one fore limb holds the trunk, the other is still on another
+    /// support and has no step onto the trunk: its grip there, placed
+    /// around the transfer's side (formula 3), is out of its reach (a
+    /// thick trunk, or a branch meeting it steeply: that grip lies a
+    /// quarter turn around the trunk from the branch). The side turns about
+    /// the trunk's axis toward that limb (the way its trunk grip comes
+    /// nearer), by the least multiple of [`SIDE_TURN_STEP`] from which the
+    /// stance held now still holds (the body is drawn around the new side at
+    /// once) and that limb has a step onto the trunk; the turns of a
+    /// transfer add up to [`SIDE_TURN_MAX`] at most. The limb on the trunk
+    /// keeps its grip; its next steps there go around the new side. The
+    /// transfer turned, or `None`: not such a stance, or no side within the
+    /// turn left gives the limb a step.
+    pub(super) fn turned_transfer_side(&self, env: &LocoView<'_>) -> Option<Transfer> {
+        let tr = self.transfer?;
+        if tr.to != tr.trunk || tr.dir < 0.0 || self.dir != tr.dir || self.any_swinging() {
+            return None;
+        }
+        let on_trunk = |l: Limb| self.limbs[l.index()].grip.support == tr.trunk;
+        let stuck = match (on_trunk(Limb::LF), on_trunk(Limb::RF)) {
+            (true, false) => Limb::RF.index(),
+            (false, true) => Limb::LF.index(),
+            _ => return None,
+        };
+        let axis = project(env.scene().support(tr.trunk), self.body_pos).tangent;
+        let with_side = |k: i32| {
+            let mut probe = *self;
+            if let Some(t) = probe.transfer.as_mut() {
+                t.side = Quat::from_axis_angle(axis, k as f32 * SIDE_TURN_STEP) * tr.side;
+                t.side_turned += k.unsigned_abs() as f32 * SIDE_TURN_STEP;
+                t.stance_count = 0;
+            }
+            probe
+        };
+        let distance = |k: i32| with_side(k).trunk_grip_distance(env, stuck, tr.trunk);
+        // Toward the limb: the way its trunk grip comes nearer.
+        let way = if distance(1) <= distance(-1) { 1 } else { -1 };
+        let steps = ((SIDE_TURN_MAX - tr.side_turned) / SIDE_TURN_STEP + 1e-3).floor() as i32;
+        (1..=steps).map(|k| with_side(way * k)).find_map(|probe| {
+            let step = probe
+                .neighbour_search(env, stuck, tr.trunk, 0)
+                .is_some_and(|sr| probe.range_has_step(env, stuck, &sr));
+            (step && probe.stance_holds(env))
+                .then_some(probe.transfer)
+                .flatten()
+        })
     }
 
     /// Goal mode, walking head first along a branch toward the trunk the
