@@ -345,7 +345,9 @@ impl Sloth {
     pub(super) fn stance_holds(&self, env: &LocoView<'_>) -> bool {
         let grips = self.limbs.map(|l| l.grip.point);
         let offset = body_offset(env, self.trunk_weights(env));
-        let stance = self.stance_check(env, grips, [HOLD_IK_TOLERANCE; 4], offset);
+        let stance = self
+            .place_stance(env, grips, [HOLD_IK_TOLERANCE; 4], offset)
+            .with_roots(env);
         self.stances_pass(env, &[stance])
     }
 
