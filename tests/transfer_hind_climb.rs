@@ -13,7 +13,6 @@
 //! (137.6–138.2° at 0.2 m, 147.5–147.9° and 156.0–156.5° at 0.08 m: 17 of
 //! 21 tenths failed on main 6112305); every draw must pass.
 
-use rayon::prelude::*;
 use slothsim::sim::TrunkVariant;
 
 mod common;
@@ -38,18 +37,10 @@ fn draw(b: usize, k: usize) -> (f32, f32) {
 
 #[test]
 fn hind_limbs_climb_to_a_branch_falling_from_the_trunk() {
-    let cases: Vec<(usize, usize)> = (0..BANDS.len())
-        .flat_map(|b| (0..DRAWS).map(move |k| (b, k)))
+    let cases: Vec<(f32, f32)> = (0..BANDS.len())
+        .flat_map(|b| (0..DRAWS).map(move |k| draw(b, k)))
         .collect();
-    let fails: Vec<String> = cases
-        .par_iter()
-        .filter_map(|&(b, k)| {
-            let (a, r) = draw(b, k);
-            let run = common::run_transfer(TrunkVariant::ToBranch, a, r);
-            let f = common::transfer_failures(&run);
-            (!f.is_empty()).then(|| format!("  {a:.3}° r {r} m: {}", f.join("; ")))
-        })
-        .collect();
+    let fails = common::transfer_case_failures(TrunkVariant::ToBranch, &cases);
     assert!(
         fails.is_empty(),
         "{} of {} draws fail:\n{}",

@@ -13,7 +13,6 @@
 //! 6112305 and 70 of 71 with the rule (120.7° fails). The count that passes
 //! must not fall.
 
-use rayon::prelude::*;
 use slothsim::sim::TrunkVariant;
 
 mod common;
@@ -37,15 +36,8 @@ fn draw(k: usize) -> (f32, f32) {
 
 #[test]
 fn locked_transfer_turns_its_side_toward_the_fore_limb_left_behind() {
-    let fails: Vec<String> = (0..DRAWS)
-        .into_par_iter()
-        .filter_map(|k| {
-            let (a, r) = draw(k);
-            let run = common::run_transfer(TrunkVariant::ToTrunk, a, r);
-            let f = common::transfer_failures(&run);
-            (!f.is_empty()).then(|| format!("  {a:.3}° r {r} m: {}", f.join("; ")))
-        })
-        .collect();
+    let cases: Vec<(f32, f32)> = (0..DRAWS).map(draw).collect();
+    let fails = common::transfer_case_failures(TrunkVariant::ToTrunk, &cases);
     let passing = DRAWS - fails.len();
     println!("{passing} of {DRAWS} pass; failing:\n{}", fails.join("\n"));
     assert!(

@@ -54,15 +54,7 @@ fn draw_cases(seed: u64, draws: usize) -> Vec<(f32, f32)> {
 fn trunk_to_branch_into_the_wedge() {
     let cases = draw_cases(SEED, DRAWS);
     println!("cases (angle, radius): {cases:?}");
-    let fails: Vec<String> = cases
-        .par_iter()
-        .map(|&(a, r)| {
-            let res = common::run_transfer(TrunkVariant::ToBranch, a, r);
-            (a, r, common::transfer_failures(&res))
-        })
-        .filter(|(_, _, f)| !f.is_empty())
-        .map(|(a, r, f)| format!("  {a:.3}° r {r} m: {}", f.join("; ")))
-        .collect();
+    let fails = common::transfer_case_failures(TrunkVariant::ToBranch, &cases);
     assert!(
         fails.is_empty(),
         "{} of {} draws fail:\n{}",

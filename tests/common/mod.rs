@@ -73,3 +73,20 @@ pub fn transfer_failures(r: &slothsim::sim::ScenarioResult) -> Vec<String> {
     }
     failures
 }
+
+/// Runs transfer `variant` at every `(angle, trunk radius)` of `cases` in
+/// parallel: one line per failing case (angle, radius, its failures).
+#[allow(dead_code)]
+pub fn transfer_case_failures(
+    variant: slothsim::sim::TrunkVariant,
+    cases: &[(f32, f32)],
+) -> Vec<String> {
+    use rayon::prelude::*;
+    cases
+        .par_iter()
+        .filter_map(|&(a, r)| {
+            let f = transfer_failures(&run_transfer(variant, a, r));
+            (!f.is_empty()).then(|| format!("  {a:.3}° r {r} m: {}", f.join("; ")))
+        })
+        .collect()
+}
