@@ -54,14 +54,7 @@ fn draw_cases(seed: u64, draws: usize) -> Vec<(f32, f32)> {
 fn trunk_to_branch_into_the_wedge() {
     let cases = draw_cases(SEED, DRAWS);
     println!("cases (angle, radius): {cases:?}");
-    let fails = common::transfer_case_failures(TrunkVariant::ToBranch, &cases);
-    assert!(
-        fails.is_empty(),
-        "{} of {} draws fail:\n{}",
-        fails.len(),
-        cases.len(),
-        fails.join("\n")
-    );
+    common::assert_transfers_pass(TrunkVariant::ToBranch, &cases);
 }
 
 /// Branch → trunk draws per radius (`branch_to_trunk_in_the_wedge`).

@@ -90,3 +90,17 @@ pub fn transfer_case_failures(
         })
         .collect()
 }
+
+/// Asserts that transfer `variant` passes at every `(angle, trunk radius)`
+/// of `cases` (the failing ones listed otherwise).
+#[allow(dead_code)]
+pub fn assert_transfers_pass(variant: slothsim::sim::TrunkVariant, cases: &[(f32, f32)]) {
+    let fails = transfer_case_failures(variant, cases);
+    assert!(
+        fails.is_empty(),
+        "{} of {} draws fail:\n{}",
+        fails.len(),
+        cases.len(),
+        fails.join("\n")
+    );
+}
