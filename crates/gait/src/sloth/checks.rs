@@ -127,21 +127,8 @@ fn reach_check_polish(
     (r.error <= tol, r.error)
 }
 
-/// One stance a step passes through (see [`Sloth::step_reachable`]): the
-/// four IK targets, how close each claw must get, and the body they imply.
-#[derive(Clone, Copy)]
-struct StanceCheck {
-    grips: [Vec3; 4],
-    tol: [f32; 4],
-    pos: Vec3,
-    rot: Quat,
-    /// The body offset it was placed with.
-    offset: BodyOffset,
-    /// The chain roots of that body.
-    roots: [RootTransform; 4],
-}
-
-/// A [`StanceCheck`] without its chain roots: all that the body tests of a
+/// A stance a step passes through, placed: the four IK targets, how close
+/// each claw must get, and the body they imply. All that the body tests of a
 /// step's arc ([`Sloth::arc_body_penetrates`]) and the head-up checks read.
 #[derive(Clone, Copy)]
 struct PlacedStance {
@@ -149,26 +136,25 @@ struct PlacedStance {
     tol: [f32; 4],
     pos: Vec3,
     rot: Quat,
+    /// The body offset it was placed with.
     offset: BodyOffset,
+}
+
+/// One stance a step passes through (see [`Sloth::step_reachable`]): the
+/// placed stance and the chain roots of its body, for its IK checks.
+#[derive(Clone, Copy)]
+struct StanceCheck {
+    placed: PlacedStance,
+    /// The chain roots of that body.
+    roots: [RootTransform; 4],
 }
 
 impl PlacedStance {
     /// The stance with the chain roots of its body, for its IK checks.
     fn with_roots(self, env: &LocoView<'_>) -> StanceCheck {
-        let PlacedStance {
-            grips,
-            tol,
-            pos,
-            rot,
-            offset,
-        } = self;
         StanceCheck {
-            grips,
-            tol,
-            pos,
-            rot,
-            offset,
-            roots: std::array::from_fn(|i| env.rig.root_ws(i, pos, rot)),
+            placed: self,
+            roots: std::array::from_fn(|i| env.rig.root_ws(i, self.pos, self.rot)),
         }
     }
 }
@@ -298,7 +284,9 @@ impl Sloth {
         if onto_trunk && held(lf) == held(rf) && scene.support(held(lf)).kind == SupportKind::Trunk
         {
             let head_up = |pos: Vec3, rot: Quat| head_above_hips(env, pos, rot);
-            if !stances.iter().all(|st| head_up(st.pos, st.rot))
+            if !stances
+                .iter()
+                .all(|st| head_up(st.placed.pos, st.placed.rot))
                 || !(0..HEAD_CHECKS).all(|k| {
                     let st = stance_at(Some(k as f32 / HEAD_CHECKS as f32));
                     head_up(st.pos, st.rot)
@@ -328,8 +316,10 @@ impl Sloth {
                     l.phase = LimbPhase::Planted;
                 }
                 let offset = body_offset(env, landed.trunk_weights(env));
-                let (pos, rot) = landed.body_for_targets(env, &end.grips, offset, BodySide::Grips);
-                let (pos2, rot2) = landed.body_for_targets(env, &end.grips, offset, BodySide::Body);
+                let (pos, rot) =
+                    landed.body_for_targets(env, &end.placed.grips, offset, BodySide::Grips);
+                let (pos2, rot2) =
+                    landed.body_for_targets(env, &end.placed.grips, offset, BodySide::Body);
                 if landed.body_penetrates(env, pos, rot) || landed.body_penetrates(env, pos2, rot2)
                 {
                     return false;
@@ -600,7 +590,7 @@ impl Sloth {
         let in_band = stances.iter().all(|st| {
             (0..4).all(|i| {
                 let root = Vec3::from(st.roots[i].position);
-                let d = root.distance(st.grips[i]);
+                let d = root.distance(st.placed.grips[i]);
                 !(d > max || d < min)
             })
         });
@@ -613,8 +603,10 @@ impl Sloth {
         let bodies = |side: BodySide| -> [(Vec3, Quat); MAX_STANCES] {
             std::array::from_fn(|k| match (stances.get(k), side) {
                 (None, _) => (Vec3::ZERO, Quat::IDENTITY),
-                (Some(st), BodySide::Body) => (st.pos, st.rot),
-                (Some(st), _) => self.body_for_targets(env, &st.grips, st.offset, side),
+                (Some(st), BodySide::Body) => (st.placed.pos, st.placed.rot),
+                (Some(st), _) => {
+                    self.body_for_targets(env, &st.placed.grips, st.placed.offset, side)
+                }
             })
         };
         let n = stances.len();
@@ -656,13 +648,13 @@ impl Sloth {
         let holds = |st: &StanceCheck, poses: &mut [ChainPose], r: &[CcdResult]| {
             (0..4).all(|i| {
                 // An infinite tolerance: the stepping limb is in the air.
-                st.tol[i] == f32::INFINITY
+                st.placed.tol[i] == f32::INFINITY
                     || reach_check_polish(
                         &env.rig.chains[i],
                         st.roots[i],
-                        st.grips[i],
+                        st.placed.grips[i],
                         &mut poses[i],
-                        st.tol[i],
+                        st.placed.tol[i],
                         &base,
                         r[i].error,
                     )
@@ -677,10 +669,10 @@ impl Sloth {
                 let r = slothsim_rig::solve8_prepared_tolerances(
                     &env.rig.chains4,
                     lanes8(sa.roots, sb.roots),
-                    lanes8(sa.grips, sb.grips),
+                    lanes8(sa.placed.grips, sb.placed.grips),
                     &mut poses,
                     &params,
-                    lanes8(sa.tol, sb.tol),
+                    lanes8(sa.placed.tol, sb.placed.tol),
                 );
                 let (pa, pb) = poses.split_at_mut(4);
                 holds(sa, pa, &r[..4]) && holds(sb, pb, &r[4..])
@@ -691,10 +683,10 @@ impl Sloth {
                 let r = slothsim_rig::solve4_prepared_tolerances(
                     &env.rig.chains4,
                     st.roots,
-                    st.grips,
+                    st.placed.grips,
                     &mut poses,
                     &params,
-                    st.tol,
+                    st.placed.tol,
                 );
                 holds(st, &mut poses, &r)
             }
