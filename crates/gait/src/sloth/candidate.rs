@@ -544,7 +544,7 @@ impl Sloth {
     /// while the hind limbs are on the branch) at least
     /// [`crate::LocomotionConfig::head_up_margin_m`] above the hind grips, and
     /// the hind limbs on the branch keep that far below the fore limbs on the
-    /// trunk.
+    /// trunk (their mean height).
     fn keeps_head_up(&self, env: &LocoView<'_>, p: &Placement) -> bool {
         let (limb, approx, a) = (p.limb, p.grip, p.axis);
         let margin = env.cfg.head_up_margin_m;
@@ -582,14 +582,21 @@ impl Sloth {
             // …and the hind limbs, still on the branch, stay that far below
             // the fore limbs on the trunk (stepping up a branch to a trunk
             // grip at branch height, the hips rose above the head: 1,453
-            // sloth-frames in a 2,000-sloth run).
-            let fore_on_trunk_bottom = [Limb::LF, Limb::RF]
+            // sloth-frames in a 2,000-sloth run): below the mean height of
+            // the fore grips on the trunk (the shoulders' there), not the
+            // lower one. Against the lower one a fore grip taken just the
+            // margin above the hind grips locked the stance: the hind
+            // limbs could not step up a branch rising to the trunk, the
+            // trunk lay just beyond a transfer step (0.42 m against 0.405 m)
+            // and the fore limbs stood at the transfer's spread cap
+            // (branch_trunk at 114.5°, 0.2 m: RF 5 cm above the hind grips,
+            // LF 17 cm; for 70 s).
+            let (sum, n) = [Limb::LF, Limb::RF]
                 .map(|f| self.limbs[f.index()].grip)
                 .into_iter()
                 .filter(|g| env.scene().support(g.support).kind == SupportKind::Trunk)
-                .map(|g| g.point.y)
-                .reduce(f32::min);
-            if fore_on_trunk_bottom.is_some_and(|y| approx.y > y - margin) {
+                .fold((0.0f32, 0u8), |(sum, n), g| (sum + g.point.y, n + 1));
+            if n > 0 && approx.y > sum / f32::from(n) - margin {
                 return false;
             }
         }
