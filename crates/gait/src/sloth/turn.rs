@@ -53,15 +53,23 @@ const NO_LIMB: u8 = u8::MAX;
 /// judge measures it ([`surface_gap`]), is not taken (see [`on_surface`]).
 const TURN_GRIP_GAP_M: f32 = 0.001;
 
-/// A turning grip put on the surface of branch `s` near `p`, and its
-/// outward normal: `p` moved along the radius through its nearest axis
-/// point to that point's radius. A grip placed from the axis point at its
-/// arc length ([`axis_at`]) lies off the surface where the axis bends
-/// (its nearest axis point is another segment's): traced in the 5,000 ×
-/// 300 s crowd, a turn's hind grip 7 mm inside a branch near its fork
-/// held for 2 s (the judge's gap). `None` where even that point is more
-/// than [`TURN_GRIP_GAP_M`] off the surface (a mesh, or a sharp bend).
-fn on_surface(env: &LocoView<'_>, s: &Support, p: Vec3) -> Option<(Vec3, Vec3)> {
+/// A turning grip on the surface of branch `s` near `p` (outward normal
+/// `out`), and its normal: `p` itself where it lies on the surface (within
+/// [`TURN_GRIP_GAP_M`]), else `p` moved along the radius through its
+/// nearest axis point to that point's radius. A grip placed from the axis
+/// point at its arc length ([`axis_at`]) lies off the surface where the
+/// axis bends (its nearest axis point is another segment's): traced in the
+/// 5,000 × 300 s crowd, a turn's hind grip 7 mm inside a branch near its
+/// fork held for 2 s (the judge's gap). `None` where even that point is
+/// more than [`TURN_GRIP_GAP_M`] off the surface (a mesh, a sharp bend).
+/// Grips already on the surface are kept bit for bit: re-placing them
+/// moved them by rounding only, and that alone lost a transfer case
+/// (`branch_trunk` 0.2 m 74.5°, whose goal-mode turn is otherwise as it
+/// was).
+fn on_surface(env: &LocoView<'_>, s: &Support, p: Vec3, out: Vec3) -> Option<(Vec3, Vec3)> {
+    if surface_gap(env.query, s, p) <= TURN_GRIP_GAP_M {
+        return Some((p, out));
+    }
     let a = project(s, p);
     let n = (p - a.point).try_normalize()?;
     let grip = a.point + n * a.radius;
@@ -489,7 +497,7 @@ impl Sloth {
                     if own_side_only && !own.is_some_and(|g| g.dot(out) >= 0.5) {
                         return None;
                     }
-                    let (grip, out) = on_surface(env, s, a.point + out * a.radius)?;
+                    let (grip, out) = on_surface(env, s, a.point + out * a.radius, out)?;
                     if env.crowd.is_some_and(|g| g.blocked(self.id, grip)) {
                         return None;
                     }
