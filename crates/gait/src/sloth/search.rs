@@ -33,7 +33,7 @@ const RECHECK_DISTANCE: f32 = 1e-4;
 const RECHECK_NORMAL_COS: f32 = 0.9999;
 
 /// Wander mode: stop after this many turn-backs in a row without a step.
-pub(super) const MAX_STALLED_TURNS: u8 = 2;
+const MAX_STALLED_TURNS: u8 = 2;
 
 /// Back-off of the lookahead's coarse candidate scan.
 const LOOKAHEAD_STRIDE: f32 = 0.02;
@@ -304,9 +304,7 @@ impl Sloth {
     /// (tail-first walking is mostly out of the limbs' reach: see README);
     /// then stop here. Goal mode at a branch end with the goal behind, or a
     /// wanderer whose turn backs brought no step (it would stop): turn the
-    /// body around (also across a fork of two branches, on one of them:
-    /// [`Sloth::fork_turn_support`]). Goal mode otherwise: re-plan
-    /// (`replan.rs`), else stop.
+    /// body around. Goal mode otherwise: re-plan (`replan.rs`), else stop.
     /// A wanderer first turns its limbs' travel along their branches the way
     /// its body travels ([`Sloth::align_to_travel`]).
     pub(super) fn give_up(&mut self, env: &LocoView<'_>) {
@@ -315,13 +313,10 @@ impl Sloth {
             self.align_to_travel(env);
         }
         let stalled = self.stalled();
-        let fork = stalled.then(|| self.fork_turn_support(env)).flatten();
         if (stalled && self.may_turn_around(env, false))
             || (self.goal_behind() && self.may_turn_around(env, true))
         {
             self.start_turn(false);
-        } else if let Some(sid) = fork {
-            self.start_turn_on(sid, false);
         } else if self.wander && self.stalled_turns < MAX_STALLED_TURNS {
             self.turn_back();
         } else if self.replan(env) {

@@ -19,12 +19,7 @@ pub(crate) fn xorshift(mut s: u64) -> impl FnMut() -> f32 {
 /// Preset `kind`'s environment (free profile) and a sloth spawned at its
 /// start, walking toward its goal.
 pub(crate) fn preset_sloth(kind: PresetKind) -> (LocoEnv, Sloth) {
-    preset_sloth_at(kind, None)
-}
-
-/// [`preset_sloth`] with the preset's parameter (its default: `None`).
-pub(crate) fn preset_sloth_at(kind: PresetKind, param: Option<f32>) -> (LocoEnv, Sloth) {
-    let preset = Preset::by_name(kind.name(), param).unwrap();
+    let preset = Preset::by_name(kind.name(), None).unwrap();
     let cfg = LocomotionConfig::profile(Profile::Free);
     let env = LocoEnv::new(cfg, &Rig::sloth(), TraceScene::new(preset.scene.clone())).unwrap();
     let s = preset.start;

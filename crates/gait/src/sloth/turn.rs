@@ -152,53 +152,6 @@ impl Sloth {
             && (!at_end || self.at_support_end(env))
     }
 
-    /// A wanderer whose turn backs brought no step, stopped at a fork of
-    /// two branches (its limbs on both, none in the air, no transfer under
-    /// way but one only set up, as [`Self::may_turn_around`]): the branch to
-    /// turn its body around on — the one holding more limbs, else the one
-    /// nearer the body. Each limb re-grips that branch on its turn, and the
-    /// handover waits until all four hold it. Traced in the 5,000 × 300 s
-    /// crowd (from a checkpoint at 280 s): stuck wanderers stood across
-    /// forks, turning back every 5.6 s (one failed search each way, a step
-    /// back and forth between), where the turn around on one branch was not
-    /// offered.
-    pub(super) fn fork_turn_support(&self, env: &LocoView<'_>) -> Option<SupportId> {
-        let scene = env.scene();
-        let a = self.limbs[0].grip.support;
-        let b = self
-            .limbs
-            .iter()
-            .map(|l| l.grip.support)
-            .find(|&s| s != a)?;
-        let transfer_ok = self
-            .transfer
-            .is_none_or(|t| self.limbs.iter().all(|l| l.grip.support != t.to));
-        let ok = self.wander
-            && self.turn.is_none()
-            && transfer_ok
-            && self.hang_trunk.is_none()
-            && scene.support(a).kind == SupportKind::Branch
-            && scene.support(b).kind == SupportKind::Branch
-            && env.adjacency.neighbours(a).contains(&b)
-            && self.limbs.iter().all(|l| {
-                (l.grip.support == a || l.grip.support == b) && l.phase != LimbPhase::Swinging
-            });
-        if !ok {
-            return None;
-        }
-        let on = |sid: SupportId| self.limbs.iter().filter(|l| l.grip.support == sid).count();
-        let gap = |sid: SupportId| {
-            let p = project(scene.support(sid), self.body_pos);
-            p.point.distance(self.body_pos) - p.radius
-        };
-        Some(match on(a).cmp(&on(b)) {
-            std::cmp::Ordering::Greater => a,
-            std::cmp::Ordering::Less => b,
-            std::cmp::Ordering::Equal if gap(b) < gap(a) => b,
-            std::cmp::Ordering::Equal => a,
-        })
-    }
-
     /// Goal mode: the goal lies behind the body on the support it holds
     /// (a turn around at its end heads for it).
     pub(super) fn goal_behind(&self) -> bool {
@@ -211,12 +164,6 @@ impl Sloth {
     /// Starts a turn around from the current stance (see the module docs);
     /// `tail_first`: see [`Turn::tail_first`].
     pub(super) fn start_turn(&mut self, tail_first: bool) {
-        self.start_turn_on(self.limbs[0].grip.support, tail_first);
-    }
-
-    /// [`Self::start_turn`] on branch `support` (a fork's: see
-    /// [`Self::fork_turn_support`]).
-    pub(super) fn start_turn_on(&mut self, support: SupportId, tail_first: bool) {
         // A transfer only set up (see `may_turn_around`) is given up.
         self.transfer = None;
         let t = self.limbs.map(|l| l.target);
@@ -231,7 +178,7 @@ impl Sloth {
             }
         }
         self.turn = Some(Turn {
-            support,
+            support: self.limbs[0].grip.support,
             fwd0,
             up,
             sense: if self.id.is_multiple_of(2) { 1.0 } else { -1.0 },
@@ -545,13 +492,7 @@ impl Sloth {
         // Every limb has re-gripped at the other way without reaching its
         // side: hand over as it stands rather than stop.
         let tried = tr.angle >= PI - 1e-4 && usize::from(tr.idle) >= Limb::ALL.len();
-        // At a fork, every other limb has re-gripped the turn's branch.
-        let gathered = self
-            .limbs
-            .iter()
-            .enumerate()
-            .all(|(k, l)| k == li || l.grip.support == tr.support);
-        gathered && f6.dot(back) >= HANDOVER_COS && fore > hind && (own_side || tried)
+        f6.dot(back) >= HANDOVER_COS && fore > hind && (own_side || tried)
     }
 
     /// Whether limb `li`, once at its turning step's grip, still reaches it
@@ -567,75 +508,5 @@ impl Sloth {
             ..*tr
         };
         self.turn_hold_check(env, &future, t, step.limb)
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::TraceBatch;
-    use crate::sloth::Status;
-    use crate::sloth::test_util::{preset_sloth_at, tick};
-    use slothsim_scene::PresetKind;
-
-    /// The supports a sloth's limbs hold, when they are two.
-    fn across(s: &Sloth) -> Option<(SupportId, SupportId)> {
-        let a = s.limbs[0].grip.support;
-        let b = s.limbs.iter().map(|l| l.grip.support).find(|&x| x != a)?;
-        s.limbs
-            .iter()
-            .all(|l| l.grip.support == a || l.grip.support == b)
-            .then_some((a, b))
-    }
-
-    /// A wanderer whose turn backs brought no step, stopped across a fork
-    /// (the turn preset's two branches, its limbs on both, as traced in the
-    /// 5,000 × 300 s crowd): it turns its body around on one of them by
-    /// steps, every limb gathering onto it, and walks on the other way;
-    /// before, it only stopped there (and turned back every 5.6 s).
-    #[test]
-    fn stalled_wanderer_turns_around_across_a_fork() {
-        for angle in [120.0f32, 135.0, 150.0] {
-            let (env, mut sloth) = preset_sloth_at(PresetKind::Turn, Some(angle));
-            let view = env.view();
-            let mut batch = TraceBatch::default();
-            let mut frames = 0;
-            while across(&sloth).is_none()
-                || sloth.limbs.iter().any(|l| l.phase == LimbPhase::Swinging)
-            {
-                tick(&mut sloth, &view, &mut batch);
-                frames += 1;
-                assert!(frames < 60 * 60, "never across the fork");
-            }
-            let (a, b) = across(&sloth).unwrap();
-            sloth.wander = true;
-            sloth.goal = None;
-            sloth.stalled_turns = super::super::search::MAX_STALLED_TURNS;
-            sloth.give_up(&view);
-            let tr = sloth.turn.expect("a turn around at the fork");
-            assert!(tr.support == a || tr.support == b);
-            assert_eq!(sloth.status, Status::Moving);
-            let fwd0 = tr.fwd0;
-            let mut done = false;
-            for _ in 0..60 * 120 {
-                tick(&mut sloth, &view, &mut batch);
-                assert!(sloth.body_pos.is_finite());
-                // Every grip the turn takes lies on its branch's surface.
-                for l in &sloth.limbs {
-                    if l.grip.support == tr.support && l.phase != LimbPhase::Swinging {
-                        let gap =
-                            surface_gap(view.query, view.scene().support(tr.support), l.grip.point);
-                        assert!(gap <= TURN_GRIP_GAP_M, "grip {gap} m off the branch");
-                    }
-                }
-                if sloth.turn.is_none() {
-                    done = true;
-                    break;
-                }
-            }
-            assert!(done, "turn under way: {:?}", sloth.turn);
-            assert!(sloth.limbs.iter().all(|l| l.grip.support == tr.support));
-            assert!((sloth.body_rot * Vec3::Z).dot(fwd0) < -0.5);
-        }
     }
 }
