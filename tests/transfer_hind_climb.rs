@@ -27,18 +27,8 @@ const BANDS: [(f64, f64, f32); 3] = [
 /// Draws per band.
 const DRAWS: usize = 5;
 
-/// Draw `k` of band `b`: lowest + width × frac((k + 1) φ), rounded to 0.001°.
-fn draw(b: usize, k: usize) -> (f32, f32) {
-    let phi = (5.0f64.sqrt() - 1.0) / 2.0;
-    let (lo, hi, r) = BANDS[b];
-    let a = lo + (hi - lo) * (((k + 1) as f64 * phi) % 1.0);
-    ((a * 1000.0).round() as f32 / 1000.0, r)
-}
-
 #[test]
 fn hind_limbs_climb_to_a_branch_falling_from_the_trunk() {
-    let cases: Vec<(f32, f32)> = (0..BANDS.len())
-        .flat_map(|b| (0..DRAWS).map(move |k| draw(b, k)))
-        .collect();
+    let cases = common::band_draws(&BANDS, DRAWS);
     common::assert_transfers_pass(TrunkVariant::ToBranch, &cases);
 }

@@ -32,19 +32,9 @@ const DRAWS: usize = 6;
 /// 22 of 24; 98.472° at 0.2 m and 131.944° at 0.08 m failed).
 const FLOOR: usize = 24;
 
-/// Draw `k` of band `b`: lowest + width × frac((k + 1) φ), rounded to 0.001°.
-fn draw(b: usize, k: usize) -> (f32, f32) {
-    let phi = (5.0f64.sqrt() - 1.0) / 2.0;
-    let (lo, hi, r) = BANDS[b];
-    let a = lo + (hi - lo) * (((k + 1) as f64 * phi) % 1.0);
-    ((a * 1000.0).round() as f32 / 1000.0, r)
-}
-
 #[test]
 fn hind_limbs_close_up_below_the_fore_grips_mean_height() {
-    let cases: Vec<(f32, f32)> = (0..BANDS.len())
-        .flat_map(|b| (0..DRAWS).map(move |k| draw(b, k)))
-        .collect();
+    let cases = common::band_draws(&BANDS, DRAWS);
     let fails = common::transfer_case_failures(TrunkVariant::ToTrunk, &cases);
     let passing = cases.len() - fails.len();
     println!(

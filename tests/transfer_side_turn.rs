@@ -26,17 +26,9 @@ const DRAWS: usize = 12;
 /// Passing draws, measured with the side turned (main 6112305: 7).
 const FLOOR: usize = 11;
 
-/// Draw `k`: lowest + width × frac((k + 1) φ), rounded to 0.001°.
-fn draw(k: usize) -> (f32, f32) {
-    let phi = (5.0f64.sqrt() - 1.0) / 2.0;
-    let (lo, hi, r) = BAND;
-    let a = lo + (hi - lo) * (((k + 1) as f64 * phi) % 1.0);
-    ((a * 1000.0).round() as f32 / 1000.0, r)
-}
-
 #[test]
 fn locked_transfer_turns_its_side_toward_the_fore_limb_left_behind() {
-    let cases: Vec<(f32, f32)> = (0..DRAWS).map(draw).collect();
+    let cases = common::band_draws(&[BAND], DRAWS);
     let fails = common::transfer_case_failures(TrunkVariant::ToTrunk, &cases);
     let passing = DRAWS - fails.len();
     println!("{passing} of {DRAWS} pass; failing:\n{}", fails.join("\n"));

@@ -104,3 +104,21 @@ pub fn assert_transfers_pass(variant: slothsim::sim::TrunkVariant, cases: &[(f32
         fails.join("\n")
     );
 }
+
+/// `draws` fractional angles in each band `(lowest, highest, trunk radius)`
+/// (degrees, m), band by band: lowest + width × frac((k + 1) φ) for draw
+/// `k`, a low-discrepancy sequence, rounded to 0.001° (never on the
+/// half-degree grid of `matrix --step 0.5`).
+#[allow(dead_code)]
+pub fn band_draws(bands: &[(f64, f64, f32)], draws: usize) -> Vec<(f32, f32)> {
+    let phi = (5.0f64.sqrt() - 1.0) / 2.0;
+    bands
+        .iter()
+        .flat_map(|&(lo, hi, r)| {
+            (0..draws).map(move |k| {
+                let a = lo + (hi - lo) * (((k + 1) as f64 * phi) % 1.0);
+                ((a * 1000.0).round() as f32 / 1000.0, r)
+            })
+        })
+        .collect()
+}

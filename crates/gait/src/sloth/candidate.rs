@@ -683,9 +683,7 @@ impl Sloth {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::TraceBatch;
-    use crate::sloth::test_util::{preset_sloth, tick, xorshift};
-    use slothsim_scene::PresetKind;
+    use crate::sloth::test_util::{walk_presets, xorshift};
 
     /// [`Sloth::surely_too_far`] against the placement it spares: on every
     /// preset, for sloths walking (transfers included) and with their grips
@@ -697,64 +695,55 @@ mod tests {
     fn surely_too_far_rejects_only_steps_too_long() {
         let mut rnd = xorshift(0x5107);
         let (mut rejected, mut too_long, mut kept) = (0u64, 0u64, 0u64);
-        for kind in PresetKind::ALL {
-            let (env, mut sloth) = preset_sloth(kind);
-            let view = env.view();
-            let mut batch = TraceBatch::default();
-            for frame in 0..900 {
-                tick(&mut sloth, &view, &mut batch);
-                if frame % 30 != 0 {
-                    continue;
-                }
-                for moved in [false, true] {
-                    let mut probe = sloth;
-                    if moved {
-                        for l in &mut probe.limbs {
-                            let d = Vec3::new(rnd() - 0.5, rnd() - 0.5, rnd() - 0.5);
-                            l.grip.point += d * 0.6;
-                        }
+        walk_presets(30, |kind, view, frame, sloth| {
+            for moved in [false, true] {
+                let mut probe = sloth;
+                if moved {
+                    for l in &mut probe.limbs {
+                        let d = Vec3::new(rnd() - 0.5, rnd() - 0.5, rnd() - 0.5);
+                        l.grip.point += d * 0.6;
                     }
-                    for li in 0..4 {
-                        for (sid, sup) in view.scene().supports().iter().enumerate() {
-                            let support = SupportId(sid as u32);
-                            let len = sup.length();
-                            let mut u = 0.0;
-                            while u <= len {
-                                for sdir in [1.0, -1.0] {
-                                    let at = CandidateAt {
-                                        limb: li,
-                                        support,
-                                        u,
-                                        sdir,
-                                        retreat: false,
-                                        may_commit_lift: true,
-                                    };
-                                    let a = axis_at(sup, u);
-                                    let p = probe.place(&view, &at, a);
-                                    let long = p.grip.distance(p.cur) > p.max_step;
-                                    if probe.surely_too_far(&view, &at, &a) {
-                                        assert!(
-                                            long && !probe.step_in_range(&view, &at, &p),
-                                            "{} frame {frame} limb {li} support {sid} u {u}: \
+                }
+                for li in 0..4 {
+                    for (sid, sup) in view.scene().supports().iter().enumerate() {
+                        let support = SupportId(sid as u32);
+                        let len = sup.length();
+                        let mut u = 0.0;
+                        while u <= len {
+                            for sdir in [1.0, -1.0] {
+                                let at = CandidateAt {
+                                    limb: li,
+                                    support,
+                                    u,
+                                    sdir,
+                                    retreat: false,
+                                    may_commit_lift: true,
+                                };
+                                let a = axis_at(sup, u);
+                                let p = probe.place(view, &at, a);
+                                let long = p.grip.distance(p.cur) > p.max_step;
+                                if probe.surely_too_far(view, &at, &a) {
+                                    assert!(
+                                        long && !probe.step_in_range(view, &at, &p),
+                                        "{} frame {frame} limb {li} support {sid} u {u}: \
                                              rejected a step of {} m (longest {} m)",
-                                            kind.name(),
-                                            p.grip.distance(p.cur),
-                                            p.max_step
-                                        );
-                                        rejected += 1;
-                                    } else if long {
-                                        too_long += 1;
-                                    } else {
-                                        kept += 1;
-                                    }
+                                        kind.name(),
+                                        p.grip.distance(p.cur),
+                                        p.max_step
+                                    );
+                                    rejected += 1;
+                                } else if long {
+                                    too_long += 1;
+                                } else {
+                                    kept += 1;
                                 }
-                                u += 0.005;
                             }
+                            u += 0.005;
                         }
                     }
                 }
             }
-        }
+        });
         println!("rejected early {rejected}, too long but placed {too_long}, in range {kept}");
         assert!(rejected > 10 * too_long, "{rejected} vs {too_long}");
         assert!(kept > 1000, "{kept}");
@@ -790,55 +779,46 @@ mod tests {
     fn range_has_step_nearest_first_matches_farthest_first() {
         let mut rnd = xorshift(0xa11);
         let (mut yes, mut no) = (0u32, 0u32);
-        for kind in PresetKind::ALL {
-            let (env, mut sloth) = preset_sloth(kind);
-            let view = env.view();
-            let mut batch = TraceBatch::default();
-            for frame in 0..900 {
-                tick(&mut sloth, &view, &mut batch);
-                if frame % 15 != 0 {
-                    continue;
+        walk_presets(15, |kind, view, frame, sloth| {
+            for moved in [0.0, 0.05, 0.2] {
+                let mut probe = sloth;
+                for l in &mut probe.limbs {
+                    let d = Vec3::new(rnd() - 0.5, rnd() - 0.5, rnd() - 0.5);
+                    l.grip.point += d * moved;
                 }
-                for moved in [0.0, 0.05, 0.2] {
-                    let mut probe = sloth;
-                    for l in &mut probe.limbs {
-                        let d = Vec3::new(rnd() - 0.5, rnd() - 0.5, rnd() - 0.5);
-                        l.grip.point += d * moved;
+                probe.body_pos += Vec3::new(rnd() - 0.5, rnd() - 0.5, rnd() - 0.5) * moved;
+                for li in 0..4 {
+                    let g = probe.limbs[li].grip;
+                    let mut ranges = vec![probe.own_search(view, li)];
+                    for &sid in view.adjacency.neighbours(g.support) {
+                        ranges.extend(probe.neighbour_search(view, li, sid, 0));
                     }
-                    probe.body_pos += Vec3::new(rnd() - 0.5, rnd() - 0.5, rnd() - 0.5) * moved;
-                    for li in 0..4 {
-                        let g = probe.limbs[li].grip;
-                        let mut ranges = vec![probe.own_search(&view, li)];
-                        for &sid in view.adjacency.neighbours(g.support) {
-                            ranges.extend(probe.neighbour_search(&view, li, sid, 0));
-                        }
-                        // Each also stretched over 3 m back: longer than
-                        // the nearest-first buffer (the farthest-first path).
-                        let stretched: Vec<Search> = ranges
-                            .iter()
-                            .map(|sr| Search {
-                                last_u: sr.next_u - sr.sdir * 3.0,
-                                ..*sr
-                            })
-                            .collect();
-                        for sr in ranges.iter().chain(&stretched) {
-                            let want = range_has_step_farthest_first(&probe, &view, li, sr);
-                            assert_eq!(
-                                probe.range_has_step(&view, li, sr),
-                                want,
-                                "{} frame {frame} limb {li} moved {moved}",
-                                kind.name()
-                            );
-                            if want {
-                                yes += 1;
-                            } else {
-                                no += 1;
-                            }
+                    // Each also stretched over 3 m back: longer than
+                    // the nearest-first buffer (the farthest-first path).
+                    let stretched: Vec<Search> = ranges
+                        .iter()
+                        .map(|sr| Search {
+                            last_u: sr.next_u - sr.sdir * 3.0,
+                            ..*sr
+                        })
+                        .collect();
+                    for sr in ranges.iter().chain(&stretched) {
+                        let want = range_has_step_farthest_first(&probe, view, li, sr);
+                        assert_eq!(
+                            probe.range_has_step(view, li, sr),
+                            want,
+                            "{} frame {frame} limb {li} moved {moved}",
+                            kind.name()
+                        );
+                        if want {
+                            yes += 1;
+                        } else {
+                            no += 1;
                         }
                     }
                 }
             }
-        }
+        });
         println!("{yes} ranges with a step, {no} without");
         assert!(yes > 500 && no > 500, "{yes} {no}");
     }

@@ -748,9 +748,7 @@ impl Sloth {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::TraceBatch;
-    use crate::sloth::test_util::{preset_sloth, tick, xorshift};
-    use slothsim_scene::PresetKind;
+    use crate::sloth::test_util::{walk_presets, xorshift};
 
     /// [`Sloth::head_up_by_heading`] against the placed body it spares: on
     /// every preset, for sloths walking (transfers, their rolls and hang
@@ -762,47 +760,38 @@ mod tests {
     fn head_up_by_heading_matches_the_placed_body() {
         let mut rnd = xorshift(0x4ead);
         let (mut up, mut down, mut undecided) = (0u64, 0u64, 0u64);
-        for kind in PresetKind::ALL {
-            let (env, mut sloth) = preset_sloth(kind);
-            let view = env.view();
-            let mut batch = TraceBatch::default();
-            for frame in 0..900 {
-                tick(&mut sloth, &view, &mut batch);
-                if frame % 10 != 0 {
-                    continue;
+        walk_presets(10, |kind, view, frame, sloth| {
+            let offset = body_offset(view, sloth.trunk_weights(view));
+            for k in 0..8 {
+                let mut t = sloth.limbs.map(|l| l.grip.point);
+                if k > 0 {
+                    for p in &mut t {
+                        let d = Vec3::new(rnd() - 0.5, rnd() - 0.5, rnd() - 0.5);
+                        *p += d * 0.5 * k as f32;
+                    }
                 }
-                let offset = body_offset(&view, sloth.trunk_weights(&view));
-                for k in 0..8 {
-                    let mut t = sloth.limbs.map(|l| l.grip.point);
-                    if k > 0 {
-                        for p in &mut t {
-                            let d = Vec3::new(rnd() - 0.5, rnd() - 0.5, rnd() - 0.5);
-                            *p += d * 0.5 * k as f32;
-                        }
-                    }
-                    let mut off = offset;
-                    if k % 2 == 1 {
-                        off.hind_back_m = view.cfg.offset_back_m * rnd();
-                    }
-                    let Some(decided) = sloth.head_up_by_heading(&view, &t, off) else {
-                        undecided += 1;
-                        continue;
-                    };
-                    let (pos, rot) = sloth.body_for_targets(&view, &t, off, BodySide::Body);
-                    assert_eq!(
-                        decided,
-                        head_above_hips(&view, pos, rot),
-                        "{} frame {frame} probe {k}",
-                        kind.name()
-                    );
-                    if decided {
-                        up += 1;
-                    } else {
-                        down += 1;
-                    }
+                let mut off = offset;
+                if k % 2 == 1 {
+                    off.hind_back_m = view.cfg.offset_back_m * rnd();
+                }
+                let Some(decided) = sloth.head_up_by_heading(view, &t, off) else {
+                    undecided += 1;
+                    continue;
+                };
+                let (pos, rot) = sloth.body_for_targets(view, &t, off, BodySide::Body);
+                assert_eq!(
+                    decided,
+                    head_above_hips(view, pos, rot),
+                    "{} frame {frame} probe {k}",
+                    kind.name()
+                );
+                if decided {
+                    up += 1;
+                } else {
+                    down += 1;
                 }
             }
-        }
+        });
         println!("head up {up}, down {down}, undecided {undecided}");
         assert!(up > 1000 && down > 1000, "{up} {down}");
         assert!(undecided * 4 < up + down, "{undecided} of {}", up + down);

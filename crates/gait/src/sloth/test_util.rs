@@ -43,3 +43,23 @@ pub(crate) fn tick(sloth: &mut Sloth, view: &LocoView<'_>, batch: &mut TraceBatc
     sloth.solve_limbs(view);
     sloth.transitions(view, 1.0 / 60.0, batch);
 }
+
+/// Walks every preset's sloth for 900 ticks (15 s) and hands `f` the
+/// preset, the view, the frame and the sloth as it stands every `every`
+/// frames (from frame 0).
+pub(crate) fn walk_presets(
+    every: usize,
+    mut f: impl FnMut(PresetKind, &LocoView<'_>, usize, Sloth),
+) {
+    for kind in PresetKind::ALL {
+        let (env, mut sloth) = preset_sloth(kind);
+        let view = env.view();
+        let mut batch = TraceBatch::default();
+        for frame in 0..900 {
+            tick(&mut sloth, &view, &mut batch);
+            if frame % every == 0 {
+                f(kind, &view, frame, sloth);
+            }
+        }
+    }
+}
