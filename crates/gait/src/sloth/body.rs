@@ -80,6 +80,51 @@ const SHIFT_GAIN_RATE: f32 = 4.0;
 /// The most the weight shift moves the body (m/s).
 const SHIFT_SPEED: f32 = 0.15;
 
+/// Formula 6's sides (a side's hind → fore grip) shorter than this (m)
+/// count in proportion to their length instead of as a unit direction: the
+/// direction of two grips on one point is undefined, and the heading (and
+/// the body placed from it) jumped as one of them lifted off. A turn around
+/// left a crowd sloth's LH 0.7 mm from LF's grip; LH's first 5 mm of swing
+/// turned formula 6 by 40° and moved the body 8.6 cm (seed 3 of the 5,000 ×
+/// 300 s crowd: its torso 14.5 mm into the branch). Longer sides count as
+/// before, bit for bit; the walk keeps a side's grips
+/// [`same_side_spacing_m`](crate::LocomotionConfig::same_side_spacing_m)
+/// (0.15 m) apart along the body, and the 1,000-sloth crowd's sides are all
+/// longer than 0.12 m.
+const FORMULA6_SIDE_M: f32 = 0.1;
+
+/// Formula 6's two sides summing to less than this (two unit sides over
+/// 150° apart, or short ones) lean on the body's heading now, fully at a
+/// zero sum: the heading from nearly opposite sides is undefined too.
+const FORMULA6_SUM_MIN: f32 = 0.5;
+
+/// A side of formula 6 (`v`: hind → fore grip): its direction, scaled by its
+/// length below [`FORMULA6_SIDE_M`] (so continuous through two grips on one
+/// point). At or above it, exactly `v.normalize_or_zero()`.
+fn formula6_side(v: Vec3) -> Vec3 {
+    let len = v.length();
+    if len >= FORMULA6_SIDE_M {
+        v.normalize_or_zero()
+    } else if len.is_finite() {
+        v / FORMULA6_SIDE_M
+    } else {
+        Vec3::ZERO
+    }
+}
+
+/// Formula 6's heading from the sum of its sides, `now` (the body's heading)
+/// where they nearly cancel ([`FORMULA6_SUM_MIN`]): continuous in the sum
+/// except where it points back against `now` at half that length. At or
+/// above it, exactly `sum.normalize_or(now)`.
+fn formula6_heading(sum: Vec3, now: Vec3) -> Vec3 {
+    let len = sum.length();
+    if len >= FORMULA6_SUM_MIN {
+        sum.normalize_or(now)
+    } else {
+        (sum + now * (FORMULA6_SUM_MIN - len)).normalize_or(now)
+    }
+}
+
 /// Words of a `BodyKey`: the body (position, rotation), the weight shift, the hang side and flag,
 /// the transfer (flag, supports, side, away), then per limb its phase, grip
 /// point and support, and target.
@@ -554,7 +599,9 @@ impl Sloth {
     }
 
     /// Formula 6 for IK targets `t`: the average of the hind → fore
-    /// directions of both sides.
+    /// directions of both sides, continuous in the targets (a side whose
+    /// grips come within [`FORMULA6_SIDE_M`] counts less, see
+    /// [`formula6_side`] and [`formula6_heading`]).
     pub(super) fn formula6_fwd(&self, t: &[Vec3; 4]) -> Vec3 {
         let (lf, rf, lh, rh) = (
             t[Limb::LF.index()],
@@ -562,8 +609,10 @@ impl Sloth {
             t[Limb::LH.index()],
             t[Limb::RH.index()],
         );
-        ((rf - rh).normalize_or_zero() + (lf - lh).normalize_or_zero())
-            .normalize_or(self.body_rot * Vec3::Z)
+        formula6_heading(
+            formula6_side(rf - rh) + formula6_side(lf - lh),
+            self.body_rot * Vec3::Z,
+        )
     }
 
     /// How far the body (heading `fwd`, paws' mean `mean`, `metres` below
