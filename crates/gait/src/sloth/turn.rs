@@ -39,6 +39,16 @@ const TURN_SEARCH_M: f32 = 0.24;
 /// …every this many metres.
 const TURN_STRIDE_M: f32 = 0.01;
 
+/// Turning at the other way, a limb looks first for a grip at least this
+/// far (m) from the grip of the other limb of its side: a handover there
+/// hands formula 6 a side whose direction is all but undefined (a crowd
+/// sloth's turn ended with LH 0.7 mm from LF's grip, and LH's lift-off
+/// turned formula 6 by 40°: seed 3 of the 5,000 × 300 s crowd). Formula 6
+/// is continuous through such a side (see `FORMULA6_SIDE_M`, the same
+/// length), but leans on the other side alone there. Only a preference:
+/// with no such grip it takes the nearest as before.
+const TURN_SIDE_APART_M: f32 = 0.1;
+
 /// Directions around the branch a grip is tried at besides toward the root.
 const AROUND: usize = 7;
 
@@ -399,9 +409,16 @@ impl Sloth {
         // limb's own side, within 60° of it, at every point of the window,
         // and only then anywhere: the handover wants every limb on its side,
         // and a limb left at the bottom or past it (the nearest reachable
-        // grip) holds the walk's first steps at its joint limits.
-        let passes: &[bool] = if done { &[true, false] } else { &[false] };
-        passes.iter().find_map(|&own_side_only| {
+        // grip) holds the walk's first steps at its joint limits. On its
+        // side, first [`TURN_SIDE_APART_M`] from the grip of the other limb
+        // of that side (see there).
+        let same_side = self.limbs[Limb::ALL[li].same_side().index()].grip.point;
+        let passes: &[(bool, bool)] = if done {
+            &[(true, true), (true, false), (false, false)]
+        } else {
+            &[(false, false)]
+        };
+        passes.iter().find_map(|&(own_side_only, apart)| {
             (0..=2 * n).find_map(|k| {
                 // 0, +1, −1, +2, −2, …
                 let j = if k % 2 == 1 { (k + 1) / 2 } else { -(k / 2) };
@@ -445,6 +462,9 @@ impl Sloth {
                         return None;
                     }
                     let (grip, out) = on_surface(env, s, a.point + out * a.radius, out)?;
+                    if apart && grip.distance(same_side) < TURN_SIDE_APART_M {
+                        return None;
+                    }
                     if env.crowd.is_some_and(|g| g.blocked(self.id, grip)) {
                         return None;
                     }
