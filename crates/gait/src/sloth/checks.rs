@@ -265,6 +265,12 @@ impl Sloth {
         };
         let stances: [StanceCheck; STANCE_CHECKS] =
             std::array::from_fn(|k| stance_at(SWING_CHECKS.get(k).copied()).with_roots(env));
+        // The stances' reach bands and bodies first: they cost a fraction of
+        // the arc's sixteen bodies below, and every check here is pure (the
+        // order only decides how early a step is rejected).
+        if !self.stances_clear(env, &stances) {
+            return false;
+        }
         // A step between a branch and a trunk rolls the body fast: between
         // the IK checks' arc points it could enter a support the points do
         // not show, so the body is also checked at every 5 % of the arc. So
@@ -345,7 +351,7 @@ impl Sloth {
                 }
             }
         }
-        self.stances_pass(env, &stances)
+        self.stances_hold(env, &stances)
     }
 
     /// Whether every limb reaches the grip it holds, within its reach band
@@ -587,10 +593,10 @@ impl Sloth {
         };
         let stances: [StanceCheck; STANCE_CHECKS] =
             std::array::from_fn(|k| stance(SWING_CHECKS.get(k).copied()).with_roots(env));
-        if self.arc_body_penetrates(env, &stance) {
-            return false;
-        }
-        self.stances_pass(env, &stances)
+        // The stances' reach bands and bodies before the arc's sixteen bodies.
+        self.stances_clear(env, &stances)
+            && !self.arc_body_penetrates(env, &stance)
+            && self.stances_hold(env, &stances)
     }
 
     /// Whether limb `li` reaches `grips[li]` (holding tolerance, within its
@@ -635,6 +641,13 @@ impl Sloth {
     /// near the grips, and every limb with a finite tolerance reaching its
     /// target ([`Self::stances_hold`]). The last stance is the step's end.
     fn stances_pass(&self, env: &LocoView<'_>, stances: &[StanceCheck]) -> bool {
+        self.stances_clear(env, stances) && self.stances_hold(env, stances)
+    }
+
+    /// The part of [`Self::stances_pass`] before the IK: each planted limb's
+    /// root within its reach band of its grip, and the bodies clear of the
+    /// supports.
+    fn stances_clear(&self, env: &LocoView<'_>, stances: &[StanceCheck]) -> bool {
         let max = env.rig.reach * env.cfg.max_reach_fraction;
         let min = env.rig.reach * env.cfg.min_reach_fraction;
         let in_band = stances.iter().all(|st| {
@@ -664,7 +677,7 @@ impl Sloth {
             self.bodies_penetrate(env, &bodies(BodySide::Body)[..n])
                 || (trunk_walk && self.bodies_penetrate(env, &bodies(BodySide::Grips)[..n]))
         };
-        in_band && !penetrates() && self.stances_hold(env, stances)
+        in_band && !penetrates()
     }
 
     /// The CCD part of [`Self::step_reachable`]: every limb with a finite
