@@ -708,6 +708,16 @@ impl Sloth {
         let n = stances.len();
         let order: [usize; MAX_STANCES] = std::array::from_fn(|k| (k + n - 1) % n);
         let order = &order[..n];
+        // No lane of a stance ended farther off than the polish is tried
+        // from ([`reach_check_polish`] fails it as it stands): checked over
+        // every lane of a call before any lane is polished (a polish costs
+        // several sweeps; the answer is the same `all`).
+        let may_hold = |st: &StanceCheck, r: &[CcdResult]| {
+            (0..4).all(|i| {
+                let (tol, error) = (st.placed.tol[i], r[i].error);
+                !(error > tol && (error > CHECK_POLISH_MAX_ERROR || !base.refine))
+            })
+        };
         let holds = |st: &StanceCheck, poses: &mut [ChainPose], r: &[CcdResult]| {
             (0..4).all(|i| {
                 // An infinite tolerance: the stepping limb is in the air.
@@ -738,7 +748,10 @@ impl Sloth {
                     lanes8(sa.placed.tol, sb.placed.tol),
                 );
                 let (pa, pb) = poses.split_at_mut(4);
-                holds(sa, pa, &r[..4]) && holds(sb, pb, &r[4..])
+                may_hold(sa, &r[..4])
+                    && may_hold(sb, &r[4..])
+                    && holds(sa, pa, &r[..4])
+                    && holds(sb, pb, &r[4..])
             }
             [k] => {
                 let st = &stances[k];
@@ -751,7 +764,7 @@ impl Sloth {
                     &params,
                     st.placed.tol,
                 );
-                holds(st, &mut poses, &r)
+                may_hold(st, &r) && holds(st, &mut poses, &r)
             }
             _ => unreachable!("chunks of two"),
         })
