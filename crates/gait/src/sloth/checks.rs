@@ -121,7 +121,7 @@ fn reach_check_polish(
     base: &CcdParams,
     error: f32,
 ) -> (bool, f32) {
-    if error <= tol || error > CHECK_POLISH_MAX_ERROR || !base.refine {
+    if error <= tol || beyond_polish(tol, error, base.refine) {
         return (error <= tol, error);
     }
     let params = CcdParams {
@@ -131,6 +131,13 @@ fn reach_check_polish(
     };
     let r = slothsim_rig::solve(chain, root, target_ws, pose, &params);
     (r.error <= tol, r.error)
+}
+
+/// Whether a reach check whose sweeps ended `error` from the target fails
+/// as it stands: over `tol`, and beyond where [`reach_check_polish`]
+/// polishes (farther than [`CHECK_POLISH_MAX_ERROR`], or no polish at all).
+fn beyond_polish(tol: f32, error: f32, refine: bool) -> bool {
+    error > tol && (error > CHECK_POLISH_MAX_ERROR || !refine)
 }
 
 /// A stance a step passes through, placed: the four IK targets, how close
@@ -265,6 +272,12 @@ impl Sloth {
         };
         let stances: [StanceCheck; STANCE_CHECKS] =
             std::array::from_fn(|k| stance_at(SWING_CHECKS.get(k).copied()).with_roots(env));
+        // The stances' reach bands and bodies first: they cost a fraction of
+        // the arc's sixteen bodies below, and every check here is pure (the
+        // order only decides how early a step is rejected).
+        if !self.stances_clear(env, &stances) {
+            return false;
+        }
         // A step between a branch and a trunk rolls the body fast: between
         // the IK checks' arc points it could enter a support the points do
         // not show, so the body is also checked at every 5 % of the arc. So
@@ -345,7 +358,7 @@ impl Sloth {
                 }
             }
         }
-        self.stances_pass(env, &stances)
+        self.stances_hold(env, &stances)
     }
 
     /// Whether every limb reaches the grip it holds, within its reach band
@@ -587,10 +600,10 @@ impl Sloth {
         };
         let stances: [StanceCheck; STANCE_CHECKS] =
             std::array::from_fn(|k| stance(SWING_CHECKS.get(k).copied()).with_roots(env));
-        if self.arc_body_penetrates(env, &stance) {
-            return false;
-        }
-        self.stances_pass(env, &stances)
+        // The stances' reach bands and bodies before the arc's sixteen bodies.
+        self.stances_clear(env, &stances)
+            && !self.arc_body_penetrates(env, &stance)
+            && self.stances_hold(env, &stances)
     }
 
     /// Whether limb `li` reaches `grips[li]` (holding tolerance, within its
@@ -635,6 +648,13 @@ impl Sloth {
     /// near the grips, and every limb with a finite tolerance reaching its
     /// target ([`Self::stances_hold`]). The last stance is the step's end.
     fn stances_pass(&self, env: &LocoView<'_>, stances: &[StanceCheck]) -> bool {
+        self.stances_clear(env, stances) && self.stances_hold(env, stances)
+    }
+
+    /// The part of [`Self::stances_pass`] before the IK: each planted limb's
+    /// root within its reach band of its grip, and the bodies clear of the
+    /// supports.
+    fn stances_clear(&self, env: &LocoView<'_>, stances: &[StanceCheck]) -> bool {
         let max = env.rig.reach * env.cfg.max_reach_fraction;
         let min = env.rig.reach * env.cfg.min_reach_fraction;
         let in_band = stances.iter().all(|st| {
@@ -664,7 +684,7 @@ impl Sloth {
             self.bodies_penetrate(env, &bodies(BodySide::Body)[..n])
                 || (trunk_walk && self.bodies_penetrate(env, &bodies(BodySide::Grips)[..n]))
         };
-        in_band && !penetrates() && self.stances_hold(env, stances)
+        in_band && !penetrates()
     }
 
     /// The CCD part of [`Self::step_reachable`]: every limb with a finite
@@ -695,6 +715,13 @@ impl Sloth {
         let n = stances.len();
         let order: [usize; MAX_STANCES] = std::array::from_fn(|k| (k + n - 1) % n);
         let order = &order[..n];
+        // No lane of a stance ended farther off than the polish is tried
+        // from ([`reach_check_polish`] fails it as it stands): checked over
+        // every lane of a call before any lane is polished (a polish costs
+        // several sweeps; the answer is the same `all`).
+        let may_hold = |st: &StanceCheck, r: &[CcdResult]| {
+            (0..4).all(|i| !beyond_polish(st.placed.tol[i], r[i].error, base.refine))
+        };
         let holds = |st: &StanceCheck, poses: &mut [ChainPose], r: &[CcdResult]| {
             (0..4).all(|i| {
                 // An infinite tolerance: the stepping limb is in the air.
@@ -725,7 +752,10 @@ impl Sloth {
                     lanes8(sa.placed.tol, sb.placed.tol),
                 );
                 let (pa, pb) = poses.split_at_mut(4);
-                holds(sa, pa, &r[..4]) && holds(sb, pb, &r[4..])
+                may_hold(sa, &r[..4])
+                    && may_hold(sb, &r[4..])
+                    && holds(sa, pa, &r[..4])
+                    && holds(sb, pb, &r[4..])
             }
             [k] => {
                 let st = &stances[k];
@@ -738,7 +768,7 @@ impl Sloth {
                     &params,
                     st.placed.tol,
                 );
-                holds(st, &mut poses, &r)
+                may_hold(st, &r) && holds(st, &mut poses, &r)
             }
             _ => unreachable!("chunks of two"),
         })
@@ -748,7 +778,58 @@ impl Sloth {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::sloth::test_util::{walk_presets, xorshift};
+    use crate::sloth::test_util::{preset_sloth, walk_presets, xorshift};
+
+    /// [`beyond_polish`] (the stances' lanes tested before any is polished)
+    /// against [`reach_check_polish`]: on random limbs, roots, targets and
+    /// poses, with tolerances from 0.5 mm to 2 cm and infinite, sweeps' errors
+    /// at, near and far from the tolerance and the polish's limit (and NaN),
+    /// polish on and off, every lane it fails is failed by the polish as it
+    /// stands (the pose untouched), and every lane the polish passes it does
+    /// not fail.
+    #[test]
+    fn lanes_beyond_the_polish_fail_without_it() {
+        let (env, sloth) = preset_sloth(slothsim_scene::PresetKind::Turn);
+        let view = env.view();
+        let mut rnd = xorshift(0xbe70);
+        let (mut beyond, mut polished) = (0u32, 0u32);
+        for k in 0..4000 {
+            let li = k % 4;
+            let chain = &view.rig.chains[li];
+            let root = view.rig.root_ws(li, sloth.body_pos, sloth.body_rot);
+            let rootp = Vec3::from(root.position);
+            let dir = Vec3::new(rnd() - 0.5, rnd() - 0.5, rnd() - 0.5).normalize_or(Vec3::NEG_Y);
+            let target = rootp + dir * view.rig.reach * (0.3 + 0.7 * rnd());
+            let mut pose = sloth.limbs[li].pose;
+            let base = CcdParams {
+                max_iterations: CHECK_MAX_ITERATIONS,
+                refine: k % 5 != 0,
+                ..*view.ccd
+            };
+            let tol = match k % 7 {
+                0 => f32::INFINITY,
+                _ => 0.0005 + 0.0195 * rnd(),
+            };
+            let error = match k % 11 {
+                0 => f32::NAN,
+                1 => tol,
+                2 => CHECK_POLISH_MAX_ERROR,
+                3 => CHECK_POLISH_MAX_ERROR * (1.0 + 1e-6),
+                4 => tol * (1.0 + 1e-6),
+                _ => 0.03 * rnd(),
+            };
+            let before = pose;
+            let (ok, _) = reach_check_polish(chain, root, target, &mut pose, tol, &base, error);
+            if beyond_polish(tol, error, base.refine) {
+                assert!(!ok && pose == before, "lane {k}: tol {tol} error {error}");
+                beyond += 1;
+            } else if pose != before {
+                polished += 1;
+            }
+        }
+        println!("{beyond} lanes failed before the polish, {polished} polished");
+        assert!(beyond > 500 && polished > 100, "{beyond} {polished}");
+    }
 
     /// [`Sloth::head_up_by_heading`] against the placed body it spares: on
     /// every preset, for sloths walking (transfers, their rolls and hang
