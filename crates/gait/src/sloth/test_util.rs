@@ -19,8 +19,13 @@ pub(crate) fn xorshift(mut s: u64) -> impl FnMut() -> f32 {
 /// Preset `kind`'s environment (free profile) and a sloth spawned at its
 /// start, walking toward its goal.
 pub(crate) fn preset_sloth(kind: PresetKind) -> (LocoEnv, Sloth) {
+    preset_sloth_with(kind, Profile::Free)
+}
+
+/// [`preset_sloth`] with gait profile `profile`.
+pub(crate) fn preset_sloth_with(kind: PresetKind, profile: Profile) -> (LocoEnv, Sloth) {
     let preset = Preset::by_name(kind.name(), None).unwrap();
-    let cfg = LocomotionConfig::profile(Profile::Free);
+    let cfg = LocomotionConfig::profile(profile);
     let env = LocoEnv::new(cfg, &Rig::sloth(), TraceScene::new(preset.scene.clone())).unwrap();
     let s = preset.start;
     let hint = SpawnHint {
@@ -47,12 +52,18 @@ pub(crate) fn tick(sloth: &mut Sloth, view: &LocoView<'_>, batch: &mut TraceBatc
 /// Walks every preset's sloth for 900 ticks (15 s) and hands `f` the
 /// preset, the view, the frame and the sloth as it stands every `every`
 /// frames (from frame 0).
-pub(crate) fn walk_presets(
+pub(crate) fn walk_presets(every: usize, f: impl FnMut(PresetKind, &LocoView<'_>, usize, Sloth)) {
+    walk_presets_with(Profile::Free, every, f);
+}
+
+/// [`walk_presets`] with gait profile `profile`.
+pub(crate) fn walk_presets_with(
+    profile: Profile,
     every: usize,
     mut f: impl FnMut(PresetKind, &LocoView<'_>, usize, Sloth),
 ) {
     for kind in PresetKind::ALL {
-        let (env, mut sloth) = preset_sloth(kind);
+        let (env, mut sloth) = preset_sloth_with(kind, profile);
         let view = env.view();
         let mut batch = TraceBatch::default();
         for frame in 0..900 {
