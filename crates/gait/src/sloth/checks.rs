@@ -14,7 +14,7 @@ use super::body::{
 use super::collide::{torso_box_meets, torso_within};
 use super::solve::lanes8;
 use super::turn::{Turn, TurnStep};
-use super::{Grip, LimbPhase, LocoView, Sloth};
+use super::{Grip, LimbPhase, LimbState, LocoView, Sloth};
 
 /// Reach checks give up once a sweep gains less than this (metres)…
 const CHECK_MIN_IMPROVEMENT: f32 = 1e-5;
@@ -250,13 +250,7 @@ impl<'a> StepArc<'a> {
                     grips[k] = l.grip.point;
                     weights[k] = trunk_blend(env, l.grip.support, l.grip.support, 1.0);
                 } else {
-                    grips[k] = swing_point(
-                        (l.from, l.from_normal),
-                        (l.grip.point, l.grip.normal),
-                        progress,
-                        env.cfg.swing_clearance_m,
-                        down,
-                    );
+                    grips[k] = in_air(env, l, progress, down);
                     weights[k] = trunk_blend(env, l.from_support, l.grip.support, progress);
                     // In the air: its pose is free.
                     tol[k] = f32::INFINITY;
@@ -618,13 +612,7 @@ impl Sloth {
                 let l = &self.limbs[m];
                 let progress = l.swing_t + tau / dur;
                 if progress < 1.0 {
-                    grips[m] = swing_point(
-                        (l.from, l.from_normal),
-                        (l.grip.point, l.grip.normal),
-                        progress,
-                        env.cfg.swing_clearance_m,
-                        down,
-                    );
+                    grips[m] = in_air(env, l, progress, down);
                     tol[m] = f32::INFINITY;
                 }
             }
@@ -895,6 +883,18 @@ impl Sloth {
             _ => unreachable!("chunks of two"),
         })
     }
+}
+
+/// Where limb `l`, in the air, is at `progress` of its swing (its arc from
+/// the grip it left to the grip it lands on; `down`: the body's down).
+fn in_air(env: &LocoView<'_>, l: &LimbState, progress: f32, down: Vec3) -> Vec3 {
+    swing_point(
+        (l.from, l.from_normal),
+        (l.grip.point, l.grip.normal),
+        progress,
+        env.cfg.swing_clearance_m,
+        down,
+    )
 }
 
 #[cfg(test)]
