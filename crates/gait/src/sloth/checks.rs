@@ -211,11 +211,7 @@ impl<'a> StepArc<'a> {
         back_scale: f32,
     ) -> Self {
         let dur_step = env.cfg.swing_duration(Limb::ALL[steps[0].0]);
-        let flying: [Option<f32>; 4] = std::array::from_fn(|k| {
-            let l = &sloth.limbs[k];
-            (l.phase == LimbPhase::Swinging && !steps.iter().any(|s| s.0 == k))
-                .then(|| env.cfg.swing_duration(Limb::ALL[k]))
-        });
+        let flying = flying_durations(sloth, env, |k| steps.iter().any(|s| s.0 == k));
         let window = (0..4)
             .filter_map(|k| flying[k].map(|d| (1.0 - sloth.limbs[k].swing_t) * d))
             .fold(dur_step, f32::max);
@@ -598,11 +594,7 @@ impl Sloth {
             (lj, (to.point, to.normal), start_s, dur_j),
         ];
         // Limbs already in the air go on along their arcs (see `StepArc`).
-        let flying: [Option<f32>; 4] = std::array::from_fn(|k| {
-            let l = &self.limbs[k];
-            (l.phase == LimbPhase::Swinging && k != li && k != lj)
-                .then(|| env.cfg.swing_duration(Limb::ALL[k]))
-        });
+        let flying = flying_durations(self, env, |k| k == li || k == lj);
         let stances: [StanceCheck; MAX_STANCES] = std::array::from_fn(|k| {
             let tau = times[k];
             let mut grips = cur.map(|(p, _)| p);
@@ -883,6 +875,19 @@ impl Sloth {
             _ => unreachable!("chunks of two"),
         })
     }
+}
+
+/// The swing duration of each limb of `sloth` already in the air, other
+/// than those `stepping` names (`None`: holding, or stepping now).
+fn flying_durations(
+    sloth: &Sloth,
+    env: &LocoView<'_>,
+    stepping: impl Fn(usize) -> bool,
+) -> [Option<f32>; 4] {
+    std::array::from_fn(|k| {
+        (sloth.limbs[k].phase == LimbPhase::Swinging && !stepping(k))
+            .then(|| env.cfg.swing_duration(Limb::ALL[k]))
+    })
 }
 
 /// Where limb `l`, in the air, is at `progress` of its swing (its arc from
