@@ -192,10 +192,17 @@ struct StepArc<'a> {
     support: SupportId,
     /// The hind pair's share of the offset back.
     back_scale: f32,
+    /// The grips held now.
+    grips_now: [Vec3; 4],
     /// The limbs' trunk weights now.
     weights_now: [f32; 4],
+    /// The body's down now (the swing arcs' lift where their normals cancel).
+    down: Vec3,
     /// Swing duration of each limb already in the air (not stepping now).
     flying: [Option<f32>; 4],
+    /// Whether any limb is already in the air (if not, [`Self::parts`]
+    /// skips them).
+    any_flying: bool,
     /// Seconds until every limb has landed (at least the step's swing).
     window: f32,
     /// `window` over the step's swing duration.
@@ -220,8 +227,11 @@ impl<'a> StepArc<'a> {
             steps,
             support,
             back_scale,
+            grips_now: std::array::from_fn(|k| sloth.limbs[k].grip.point),
             weights_now: sloth.trunk_weights(env),
+            down: sloth.body_rot * Vec3::NEG_Y,
             flying,
+            any_flying: flying.iter().any(Option::is_some),
             window,
             scale: window / dur_step,
         }
@@ -231,13 +241,16 @@ impl<'a> StepArc<'a> {
     /// every limb landed): the IK targets, tolerances and body offset.
     fn parts(&self, env: &LocoView<'_>, at: Option<f32>) -> ([Vec3; 4], [f32; 4], BodyOffset) {
         let sloth = self.sloth;
-        let mut grips = sloth.limbs.map(|l| l.grip.point);
+        let mut grips = self.grips_now;
         let mut weights = self.weights_now;
         let mut tol;
         let mut offset_back = 0.0;
-        let down = sloth.body_rot * Vec3::NEG_Y;
+        let down = self.down;
         // Where the limbs already in the air are `tau` seconds on.
         let mut others_at = |tau: f32, grips: &mut [Vec3; 4], tol: &mut [f32; 4]| {
+            if !self.any_flying {
+                return;
+            }
             for k in 0..4 {
                 let Some(dur) = self.flying[k] else { continue };
                 let l = &sloth.limbs[k];
