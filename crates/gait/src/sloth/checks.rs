@@ -9,7 +9,8 @@ use slothsim_rig::{CcdParams, CcdResult, ChainPose, Limb, RootTransform};
 use slothsim_scene::{SupportId, SupportKind};
 
 use super::body::{
-    BodyOffset, BodySide, body_offset, hind_back_share, rotation_from, swing_point, trunk_blend,
+    BodyOffset, BodySide, body_offset, hind_back_share, kind_blend, rotation_from, swing_lift_dir,
+    swing_point, swing_point_along, trunk_blend, trunk_kind,
 };
 use super::collide::{torso_box_meets, torso_within};
 use super::solve::lanes8;
@@ -48,6 +49,9 @@ const _: () = assert!(TRANSFER_BODY_CHECKS.len() <= super::collide::MAX_BODIES);
 
 /// Stances a step check solves: the arc's points and the end.
 const STANCE_CHECKS: usize = SWING_CHECKS.len() + 1;
+
+/// Most limbs a step moves together (`transfer_to_branch`'s hind pair).
+const MAX_STEPPING: usize = 2;
 
 /// Further swing progress points at which a branch ↔ trunk step's body is
 /// checked for penetration (every 5 % with [`SWING_CHECKS`]).
@@ -188,8 +192,6 @@ struct StepArc<'a> {
     sloth: &'a Sloth,
     /// The stepping limbs, their grips and surface normals.
     steps: &'a [(usize, Vec3, Vec3)],
-    /// The support they step onto.
-    support: SupportId,
     /// The hind pair's share of the offset back.
     back_scale: f32,
     /// The grips held now.
@@ -203,6 +205,12 @@ struct StepArc<'a> {
     /// Whether any limb is already in the air (if not, [`Self::parts`]
     /// skips them).
     any_flying: bool,
+    /// Each stepping limb's arc: the direction it is lifted along
+    /// ([`swing_lift_dir`]) and the kind of the support it leaves
+    /// ([`trunk_kind`]).
+    step_arcs: [(Vec3, f32); MAX_STEPPING],
+    /// The kind of the support they step onto.
+    support_kind: f32,
     /// Seconds until every limb has landed (at least the step's swing).
     window: f32,
     /// `window` over the step's swing duration.
@@ -222,16 +230,25 @@ impl<'a> StepArc<'a> {
         let window = (0..4)
             .filter_map(|k| flying[k].map(|d| (1.0 - sloth.limbs[k].swing_t) * d))
             .fold(dur_step, f32::max);
+        assert!(steps.len() <= MAX_STEPPING, "at most a pair steps together");
+        let down = sloth.body_rot * Vec3::NEG_Y;
+        let step_arcs = std::array::from_fn(|s| {
+            steps.get(s).map_or((Vec3::ZERO, 0.0), |&(li, _, normal)| {
+                let g = &sloth.limbs[li].grip;
+                (swing_lift_dir(g.normal, normal, down), trunk_kind(env, g.support))
+            })
+        });
         StepArc {
             sloth,
             steps,
-            support,
             back_scale,
             grips_now: std::array::from_fn(|k| sloth.limbs[k].grip.point),
             weights_now: sloth.trunk_weights(env),
-            down: sloth.body_rot * Vec3::NEG_Y,
+            down,
             flying,
             any_flying: flying.iter().any(Option::is_some),
+            step_arcs,
+            support_kind: trunk_kind(env, support),
             window,
             scale: window / dur_step,
         }
@@ -271,22 +288,18 @@ impl<'a> StepArc<'a> {
             others_at(t * self.window, &mut grips, &mut tol);
             // The stepping limbs' progress on their arcs.
             let p = (t * self.scale).min(1.0);
-            for &(li, grip, normal) in self.steps {
-                let l = &sloth.limbs[li];
+            let kb = self.support_kind;
+            for (&(li, grip, _), &(lift_dir, ka)) in self.steps.iter().zip(&self.step_arcs) {
                 if p >= 1.0 {
                     // Landed before the others: it holds.
                     grips[li] = grip;
-                    weights[li] = trunk_blend(env, self.support, self.support, 1.0);
+                    weights[li] = kind_blend(kb, kb, 1.0);
                     continue;
                 }
-                grips[li] = swing_point(
-                    (l.grip.point, l.grip.normal),
-                    (grip, normal),
-                    p,
-                    env.cfg.swing_clearance_m,
-                    down,
-                );
-                weights[li] = trunk_blend(env, l.grip.support, self.support, p);
+                let from = sloth.limbs[li].grip.point;
+                let clearance = env.cfg.swing_clearance_m;
+                grips[li] = swing_point_along(from, grip, lift_dir, p, clearance);
+                weights[li] = kind_blend(ka, kb, p);
                 // The stepping limb is in the air: its pose is free.
                 tol[li] = f32::INFINITY;
             }
@@ -296,9 +309,10 @@ impl<'a> StepArc<'a> {
         } else {
             tol = [HOLD_IK_TOLERANCE; 4];
             others_at(self.window, &mut grips, &mut tol);
+            let kb = self.support_kind;
             for &(li, grip, _) in self.steps {
                 grips[li] = grip;
-                weights[li] = trunk_blend(env, self.support, self.support, 1.0);
+                weights[li] = kind_blend(kb, kb, 1.0);
                 tol[li] = STANCE_IK_TOLERANCE;
             }
         }
