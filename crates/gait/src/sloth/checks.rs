@@ -387,12 +387,22 @@ impl Sloth {
             let (grips, tol, offset, me) = stance_parts(at);
             me.place_stance(env, grips, tol, offset)
         };
-        let stances: [StanceCheck; STANCE_CHECKS] =
-            std::array::from_fn(|k| stance_at(SWING_CHECKS.get(k).copied()).with_roots(env));
         // The stances' reach bands and bodies first: they cost a fraction of
         // the arc's sixteen bodies below, and every check here is pure (the
-        // order only decides how early a step is rejected).
-        if !self.stances_clear(env, &stances) {
+        // order only decides how early a step is rejected). Each stance's
+        // reach band is tested as it is placed: one in eight steps fails
+        // there, half of those at the first arc point, before the others
+        // are placed.
+        let mut stances = [None; STANCE_CHECKS];
+        for (k, slot) in stances.iter_mut().enumerate() {
+            let st = stance_at(SWING_CHECKS.get(k).copied()).with_roots(env);
+            if !in_band(env, &st) {
+                return false;
+            }
+            *slot = Some(st);
+        }
+        let stances = stances.map(|st| st.expect("every stance placed"));
+        if !self.bodies_clear(env, &stances) {
             return false;
         }
         // A step between a branch and a trunk rolls the body fast: between
@@ -784,15 +794,12 @@ impl Sloth {
     /// root within its reach band of its grip, and the bodies clear of the
     /// supports.
     fn stances_clear(&self, env: &LocoView<'_>, stances: &[StanceCheck]) -> bool {
-        let max = env.rig.reach * env.cfg.max_reach_fraction;
-        let min = env.rig.reach * env.cfg.min_reach_fraction;
-        let in_band = stances.iter().all(|st| {
-            (0..4).all(|i| {
-                let root = Vec3::from(st.roots[i].position);
-                let d = root.distance(st.placed.grips[i]);
-                !(d > max || d < min)
-            })
-        });
+        stances.iter().all(|st| in_band(env, st)) && self.bodies_clear(env, stances)
+    }
+
+    /// The part of [`Self::stances_clear`] after the reach bands: the
+    /// stances' bodies clear of the supports.
+    fn bodies_clear(&self, env: &LocoView<'_>, stances: &[StanceCheck]) -> bool {
         // Walking a trunk, the drawn body faces it from a side that lags
         // the grips' mean by a few frames: each stance's body is checked
         // from where the body is now and from where it settles (the grips'
@@ -809,11 +816,8 @@ impl Sloth {
             })
         };
         let n = stances.len();
-        let penetrates = || {
-            self.bodies_penetrate(env, &bodies(BodySide::Body)[..n])
-                || (trunk_walk && self.bodies_penetrate(env, &bodies(BodySide::Grips)[..n]))
-        };
-        in_band && !penetrates()
+        !(self.bodies_penetrate(env, &bodies(BodySide::Body)[..n])
+            || (trunk_walk && self.bodies_penetrate(env, &bodies(BodySide::Grips)[..n])))
     }
 
     /// The CCD part of [`Self::step_reachable`]: every limb with a finite
@@ -902,6 +906,18 @@ impl Sloth {
             _ => unreachable!("chunks of two"),
         })
     }
+}
+
+/// Whether each limb's chain root in stance `st` is within its reach band
+/// of the limb's IK target.
+fn in_band(env: &LocoView<'_>, st: &StanceCheck) -> bool {
+    let max = env.rig.reach * env.cfg.max_reach_fraction;
+    let min = env.rig.reach * env.cfg.min_reach_fraction;
+    (0..4).all(|i| {
+        let root = Vec3::from(st.roots[i].position);
+        let d = root.distance(st.placed.grips[i]);
+        !(d > max || d < min)
+    })
 }
 
 /// The swing duration of each limb of `sloth` already in the air, other
