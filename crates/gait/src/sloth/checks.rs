@@ -235,7 +235,10 @@ impl<'a> StepArc<'a> {
         let step_arcs = std::array::from_fn(|s| {
             steps.get(s).map_or((Vec3::ZERO, 0.0), |&(li, _, normal)| {
                 let g = &sloth.limbs[li].grip;
-                (swing_lift_dir(g.normal, normal, down), trunk_kind(env, g.support))
+                (
+                    swing_lift_dir(g.normal, normal, down),
+                    trunk_kind(env, g.support),
+                )
             })
         });
         StepArc {
