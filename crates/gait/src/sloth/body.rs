@@ -169,19 +169,44 @@ pub(super) fn swing_point(
     clearance: f32,
     fallback: Vec3,
 ) -> Vec3 {
+    let lift_dir = swing_lift_dir(from.1, to.1, fallback);
+    swing_point_along(from.0, to.0, lift_dir, t, clearance)
+}
+
+/// The direction [`swing_point`]'s arc between surface normals `from_n` and
+/// `to_n` is lifted along (the same all along the arc).
+pub(super) fn swing_lift_dir(from_n: Vec3, to_n: Vec3, fallback: Vec3) -> Vec3 {
     // Between nearly opposite normals (a grip crossing to the other side of
     // a support) their mean says little: it leans toward `fallback` (away
     // from the body's supports), so the arc does not swing on a rounding.
-    let sum = from.1 + to.1;
-    let n = (sum + fallback * (1.0 - sum.length()).max(0.0)).normalize_or(fallback);
+    let sum = from_n + to_n;
+    (sum + fallback * (1.0 - sum.length()).max(0.0)).normalize_or(fallback)
+}
+
+/// [`swing_point`] with its lift direction given ([`swing_lift_dir`]).
+pub(super) fn swing_point_along(
+    from: Vec3,
+    to: Vec3,
+    lift_dir: Vec3,
+    t: f32,
+    clearance: f32,
+) -> Vec3 {
     let lift = clearance * (std::f32::consts::PI * t).sin();
-    from.0.lerp(to.0, smoothstep(t)) + n * lift
+    from.lerp(to, smoothstep(t)) + lift_dir * lift
 }
 
 /// 1 for a trunk, 0 for a branch; from `a` to `b` eased by swing progress `t`.
 pub(super) fn trunk_blend(env: &LocoView<'_>, a: SupportId, b: SupportId, t: f32) -> f32 {
-    let k = |sid| f32::from(env.scene().support(sid).kind == SupportKind::Trunk);
-    let (ka, kb) = (k(a), k(b));
+    kind_blend(trunk_kind(env, a), trunk_kind(env, b), t)
+}
+
+/// 1 for a trunk, 0 for a branch.
+pub(super) fn trunk_kind(env: &LocoView<'_>, sid: SupportId) -> f32 {
+    f32::from(env.scene().support(sid).kind == SupportKind::Trunk)
+}
+
+/// [`trunk_blend`] from the supports' kinds ([`trunk_kind`]).
+pub(super) fn kind_blend(ka: f32, kb: f32, t: f32) -> f32 {
     ka + (kb - ka) * smoothstep(t)
 }
 

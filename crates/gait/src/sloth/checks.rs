@@ -9,7 +9,8 @@ use slothsim_rig::{CcdParams, CcdResult, ChainPose, Limb, RootTransform};
 use slothsim_scene::{SupportId, SupportKind};
 
 use super::body::{
-    BodyOffset, BodySide, body_offset, hind_back_share, rotation_from, swing_point, trunk_blend,
+    BodyOffset, BodySide, body_offset, hind_back_share, kind_blend, rotation_from, swing_lift_dir,
+    swing_point, swing_point_along, trunk_blend, trunk_kind,
 };
 use super::collide::{torso_box_meets, torso_within};
 use super::solve::lanes8;
@@ -48,6 +49,9 @@ const _: () = assert!(TRANSFER_BODY_CHECKS.len() <= super::collide::MAX_BODIES);
 
 /// Stances a step check solves: the arc's points and the end.
 const STANCE_CHECKS: usize = SWING_CHECKS.len() + 1;
+
+/// Most limbs a step moves together (`transfer_to_branch`'s hind pair).
+const MAX_STEPPING: usize = 2;
 
 /// Further swing progress points at which a branch ↔ trunk step's body is
 /// checked for penetration (every 5 % with [`SWING_CHECKS`]).
@@ -188,14 +192,25 @@ struct StepArc<'a> {
     sloth: &'a Sloth,
     /// The stepping limbs, their grips and surface normals.
     steps: &'a [(usize, Vec3, Vec3)],
-    /// The support they step onto.
-    support: SupportId,
     /// The hind pair's share of the offset back.
     back_scale: f32,
+    /// The grips held now.
+    grips_now: [Vec3; 4],
     /// The limbs' trunk weights now.
     weights_now: [f32; 4],
+    /// The body's down now (the swing arcs' lift where their normals cancel).
+    down: Vec3,
     /// Swing duration of each limb already in the air (not stepping now).
     flying: [Option<f32>; 4],
+    /// Whether any limb is already in the air (if not, [`Self::parts`]
+    /// skips them).
+    any_flying: bool,
+    /// Each stepping limb's arc: the direction it is lifted along
+    /// ([`swing_lift_dir`]) and the kind of the support it leaves
+    /// ([`trunk_kind`]).
+    step_arcs: [(Vec3, f32); MAX_STEPPING],
+    /// The kind of the support they step onto.
+    support_kind: f32,
     /// Seconds until every limb has landed (at least the step's swing).
     window: f32,
     /// `window` over the step's swing duration.
@@ -215,13 +230,28 @@ impl<'a> StepArc<'a> {
         let window = (0..4)
             .filter_map(|k| flying[k].map(|d| (1.0 - sloth.limbs[k].swing_t) * d))
             .fold(dur_step, f32::max);
+        assert!(steps.len() <= MAX_STEPPING, "at most a pair steps together");
+        let down = sloth.body_rot * Vec3::NEG_Y;
+        let step_arcs = std::array::from_fn(|s| {
+            steps.get(s).map_or((Vec3::ZERO, 0.0), |&(li, _, normal)| {
+                let g = &sloth.limbs[li].grip;
+                (
+                    swing_lift_dir(g.normal, normal, down),
+                    trunk_kind(env, g.support),
+                )
+            })
+        });
         StepArc {
             sloth,
             steps,
-            support,
             back_scale,
+            grips_now: std::array::from_fn(|k| sloth.limbs[k].grip.point),
             weights_now: sloth.trunk_weights(env),
+            down,
             flying,
+            any_flying: flying.iter().any(Option::is_some),
+            step_arcs,
+            support_kind: trunk_kind(env, support),
             window,
             scale: window / dur_step,
         }
@@ -231,13 +261,16 @@ impl<'a> StepArc<'a> {
     /// every limb landed): the IK targets, tolerances and body offset.
     fn parts(&self, env: &LocoView<'_>, at: Option<f32>) -> ([Vec3; 4], [f32; 4], BodyOffset) {
         let sloth = self.sloth;
-        let mut grips = sloth.limbs.map(|l| l.grip.point);
+        let mut grips = self.grips_now;
         let mut weights = self.weights_now;
         let mut tol;
         let mut offset_back = 0.0;
-        let down = sloth.body_rot * Vec3::NEG_Y;
+        let down = self.down;
         // Where the limbs already in the air are `tau` seconds on.
         let mut others_at = |tau: f32, grips: &mut [Vec3; 4], tol: &mut [f32; 4]| {
+            if !self.any_flying {
+                return;
+            }
             for k in 0..4 {
                 let Some(dur) = self.flying[k] else { continue };
                 let l = &sloth.limbs[k];
@@ -258,22 +291,18 @@ impl<'a> StepArc<'a> {
             others_at(t * self.window, &mut grips, &mut tol);
             // The stepping limbs' progress on their arcs.
             let p = (t * self.scale).min(1.0);
-            for &(li, grip, normal) in self.steps {
-                let l = &sloth.limbs[li];
+            let kb = self.support_kind;
+            for (&(li, grip, _), &(lift_dir, ka)) in self.steps.iter().zip(&self.step_arcs) {
                 if p >= 1.0 {
                     // Landed before the others: it holds.
                     grips[li] = grip;
-                    weights[li] = trunk_blend(env, self.support, self.support, 1.0);
+                    weights[li] = kind_blend(kb, kb, 1.0);
                     continue;
                 }
-                grips[li] = swing_point(
-                    (l.grip.point, l.grip.normal),
-                    (grip, normal),
-                    p,
-                    env.cfg.swing_clearance_m,
-                    down,
-                );
-                weights[li] = trunk_blend(env, l.grip.support, self.support, p);
+                let from = sloth.limbs[li].grip.point;
+                let clearance = env.cfg.swing_clearance_m;
+                grips[li] = swing_point_along(from, grip, lift_dir, p, clearance);
+                weights[li] = kind_blend(ka, kb, p);
                 // The stepping limb is in the air: its pose is free.
                 tol[li] = f32::INFINITY;
             }
@@ -283,9 +312,10 @@ impl<'a> StepArc<'a> {
         } else {
             tol = [HOLD_IK_TOLERANCE; 4];
             others_at(self.window, &mut grips, &mut tol);
+            let kb = self.support_kind;
             for &(li, grip, _) in self.steps {
                 grips[li] = grip;
-                weights[li] = trunk_blend(env, self.support, self.support, 1.0);
+                weights[li] = kind_blend(kb, kb, 1.0);
                 tol[li] = STANCE_IK_TOLERANCE;
             }
         }
@@ -360,12 +390,22 @@ impl Sloth {
             let (grips, tol, offset, me) = stance_parts(at);
             me.place_stance(env, grips, tol, offset)
         };
-        let stances: [StanceCheck; STANCE_CHECKS] =
-            std::array::from_fn(|k| stance_at(SWING_CHECKS.get(k).copied()).with_roots(env));
         // The stances' reach bands and bodies first: they cost a fraction of
         // the arc's sixteen bodies below, and every check here is pure (the
-        // order only decides how early a step is rejected).
-        if !self.stances_clear(env, &stances) {
+        // order only decides how early a step is rejected). Each stance's
+        // reach band is tested as it is placed: one in eight steps fails
+        // there, half of those at the first arc point, before the others
+        // are placed.
+        let mut stances = [None; STANCE_CHECKS];
+        for (k, slot) in stances.iter_mut().enumerate() {
+            let st = stance_at(SWING_CHECKS.get(k).copied()).with_roots(env);
+            if !in_band(env, &st) {
+                return false;
+            }
+            *slot = Some(st);
+        }
+        let stances = stances.map(|st| st.expect("every stance placed"));
+        if !self.bodies_clear(env, &stances) {
             return false;
         }
         // A step between a branch and a trunk rolls the body fast: between
@@ -757,15 +797,12 @@ impl Sloth {
     /// root within its reach band of its grip, and the bodies clear of the
     /// supports.
     fn stances_clear(&self, env: &LocoView<'_>, stances: &[StanceCheck]) -> bool {
-        let max = env.rig.reach * env.cfg.max_reach_fraction;
-        let min = env.rig.reach * env.cfg.min_reach_fraction;
-        let in_band = stances.iter().all(|st| {
-            (0..4).all(|i| {
-                let root = Vec3::from(st.roots[i].position);
-                let d = root.distance(st.placed.grips[i]);
-                !(d > max || d < min)
-            })
-        });
+        stances.iter().all(|st| in_band(env, st)) && self.bodies_clear(env, stances)
+    }
+
+    /// The part of [`Self::stances_clear`] after the reach bands: the
+    /// stances' bodies clear of the supports.
+    fn bodies_clear(&self, env: &LocoView<'_>, stances: &[StanceCheck]) -> bool {
         // Walking a trunk, the drawn body faces it from a side that lags
         // the grips' mean by a few frames: each stance's body is checked
         // from where the body is now and from where it settles (the grips'
@@ -782,11 +819,8 @@ impl Sloth {
             })
         };
         let n = stances.len();
-        let penetrates = || {
-            self.bodies_penetrate(env, &bodies(BodySide::Body)[..n])
-                || (trunk_walk && self.bodies_penetrate(env, &bodies(BodySide::Grips)[..n]))
-        };
-        in_band && !penetrates()
+        !(self.bodies_penetrate(env, &bodies(BodySide::Body)[..n])
+            || (trunk_walk && self.bodies_penetrate(env, &bodies(BodySide::Grips)[..n])))
     }
 
     /// The CCD part of [`Self::step_reachable`]: every limb with a finite
@@ -875,6 +909,18 @@ impl Sloth {
             _ => unreachable!("chunks of two"),
         })
     }
+}
+
+/// Whether each limb's chain root in stance `st` is within its reach band
+/// of the limb's IK target.
+fn in_band(env: &LocoView<'_>, st: &StanceCheck) -> bool {
+    let max = env.rig.reach * env.cfg.max_reach_fraction;
+    let min = env.rig.reach * env.cfg.min_reach_fraction;
+    (0..4).all(|i| {
+        let root = Vec3::from(st.roots[i].position);
+        let d = root.distance(st.placed.grips[i]);
+        !(d > max || d < min)
+    })
 }
 
 /// The swing duration of each limb of `sloth` already in the air, other
