@@ -521,8 +521,21 @@ impl Sloth {
         // trunk and may split a girdle by more than a step) could never land
         // level, and its partner may not lead further: it closes the gap as
         // far as a step goes instead (the farthest valid candidate wins).
+        // So may a hind limb on the approach to the goal's trunk
+        // ([`Self::approach_trunk`]) while the search is failing, once its
+        // partner leads by more than the girdle lead less a step (the
+        // partner may not step ahead either: only this limb can move the
+        // girdle): with the fore limbs held up at the junction, a level
+        // step there moves the body far enough to leave another limb past
+        // its reach where a shorter one holds (branch_trunk at 139.5°, 0.2 m:
+        // LH 0.21 m behind RH from 13 s, its level steps too near LF or
+        // leaving RH 10–13 mm short of its grip, until the time ran out).
         let cur_lead = (p.cur - opp).dot(p.travel);
-        let min_lead = if cur_lead < -(cfg.max_step_m - cfg.min_step_m) {
+        let girdle_locked = !limb.is_fore()
+            && -cur_lead > cfg.max_girdle_lead * cfg.max_step_m - cfg.min_step_m
+            && self.failed_searches > 0
+            && self.approach_trunk(env).is_some();
+        let min_lead = if cur_lead < -(cfg.max_step_m - cfg.min_step_m) || girdle_locked {
             cur_lead + cfg.min_step_m
         } else {
             0.0
