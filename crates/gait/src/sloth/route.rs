@@ -262,7 +262,6 @@ impl Sloth {
 
     /// Sets up the search on the next admissible neighbour support. False when none is left.
     pub(super) fn next_neighbour(&mut self, env: &LocoView<'_>, li: usize) -> bool {
-        let limb = Limb::ALL[li];
         let cur = self.limbs[li].grip;
         let neighbours = if self.keeps_to(cur.support) {
             &[]
@@ -273,14 +272,6 @@ impl Sloth {
             u16::MAX => 0usize,
             n => n as usize,
         };
-        // The supports the leading limbs hold: they transfer first.
-        let lead = if self.dir > 0.0 {
-            [Limb::LF, Limb::RF]
-        } else {
-            [Limb::LH, Limb::RH]
-        };
-        let lead_supports = lead.map(|l| self.limbs[l.index()].grip.support);
-        let lead_on_cur = lead_supports.contains(&cur.support);
         // Wander mode: neighbours in an order of this sloth's own (the same
         // for all its limbs at this support, so they pick the same one).
         let rotate = if self.wander && !neighbours.is_empty() {
@@ -299,9 +290,7 @@ impl Sloth {
             {
                 continue;
             }
-            // Trailing limbs only follow onto a support a leading limb already
-            // holds, and leave a trunk only when no leading limb is on it.
-            if !self.leads(limb) && (!lead_supports.contains(&sid) || lead_on_cur) {
+            if !self.may_follow(env, li, sid) {
                 continue;
             }
             // A branch ↔ trunk change: the transfer (and its side) is set up
@@ -316,6 +305,44 @@ impl Sloth {
         }
         self.limbs[li].search.neighbour = k as u16;
         false
+    }
+
+    /// Whether limb `li` may step onto neighbour support `sid` of the one
+    /// it holds. The leading limbs (fore head first, hind tail first)
+    /// change support first; the others follow onto a support a leading
+    /// limb holds, and leave theirs only when no leading limb is on it.
+    /// A wanderer's leading limbs split across a fork of two branches (one
+    /// on each) hold both ways on: once its search has failed, a trailing
+    /// limb on one of them may follow the other leading limb onto the other
+    /// branch, if that branch holds at least as many of its limbs (the limbs
+    /// gather on one branch, never spread further). Traced from main's
+    /// 280 s checkpoint of the 5,000 × 300 s crowd (sloth 676): the left
+    /// limbs on one branch, the right ones on the other, the right fore
+    /// limb out of reach of the left branch, and the right hind limb, with
+    /// valid steps onto the left branch, held to its own by the right fore
+    /// limb: no limb had a step either way, for minutes.
+    pub(super) fn may_follow(&self, env: &LocoView<'_>, li: usize, sid: SupportId) -> bool {
+        let limb = Limb::ALL[li];
+        if self.leads(limb) {
+            return true;
+        }
+        let lead = if self.dir > 0.0 {
+            [Limb::LF, Limb::RF]
+        } else {
+            [Limb::LH, Limb::RH]
+        };
+        let [a, b] = lead.map(|l| self.limbs[l.index()].grip.support);
+        let cur = self.limbs[li].grip.support;
+        if sid != a && sid != b {
+            return false;
+        }
+        if cur != a && cur != b {
+            return true;
+        }
+        let branch = |s: SupportId| env.scene().support(s).kind == SupportKind::Branch;
+        let held = |s: SupportId| self.limbs.iter().filter(|l| l.grip.support == s).count();
+        let failing = self.failed_searches > 0 || self.stuck_cause.is_some();
+        self.wander && failing && a != b && branch(a) && branch(b) && held(sid) >= held(cur)
     }
 
     /// Goal mode: `sid` is the goal's support.

@@ -379,23 +379,15 @@ impl Sloth {
     /// Whether limb `li` has any candidate passing the cheap checks and the
     /// reach check on its support or an admissible neighbour (no traces).
     fn has_step(&self, env: &LocoView<'_>, li: usize) -> bool {
-        let limb = Limb::ALL[li];
         let g = self.limbs[li].grip;
         let scan = |sr: &Search| self.range_has_step(env, li, sr);
         if scan(&self.own_search(env, li)) {
             return true;
         }
-        // The leading limbs (fore head first, hind tail first) change
-        // support first; the others follow onto a support they hold.
-        let lead = if self.dir > 0.0 {
-            [Limb::LF, Limb::RF]
-        } else {
-            [Limb::LH, Limb::RH]
-        };
-        let lead_supports = lead.map(|l| self.limbs[l.index()].grip.support);
-        let lead_on_cur = lead_supports.contains(&g.support);
+        // The leading limbs change support first; the others follow
+        // (`Sloth::may_follow`).
         env.adjacency.neighbours(g.support).iter().any(|&sid| {
-            (self.leads(limb) || (lead_supports.contains(&sid) && !lead_on_cur))
+            self.may_follow(env, li, sid)
                 && self
                     .neighbour_search(env, li, sid, 0)
                     .is_some_and(|sr| scan(&sr))
