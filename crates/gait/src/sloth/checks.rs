@@ -296,7 +296,7 @@ impl<'a> StepArc<'a> {
                 if p >= 1.0 {
                     // Landed before the others: it holds.
                     grips[li] = grip;
-                    weights[li] = kind_blend(kb, kb, 1.0);
+                    weights[li] = kb;
                     continue;
                 }
                 let from = sloth.limbs[li].grip.point;
@@ -315,7 +315,7 @@ impl<'a> StepArc<'a> {
             let kb = self.support_kind;
             for &(li, grip, _) in self.steps {
                 grips[li] = grip;
-                weights[li] = kind_blend(kb, kb, 1.0);
+                weights[li] = kb;
                 tol[li] = STANCE_IK_TOLERANCE;
             }
         }
