@@ -479,12 +479,43 @@ impl Sloth {
         if *since < 0.0 {
             *since = self.time;
         }
-        if self.time - *since >= RELEASE_MAX_WAIT_S {
-            *since = -1.0;
+        if self.time - *since >= RELEASE_MAX_WAIT_S || self.wait_is_futile(w, li) {
+            self.load.held_since[li] = -1.0;
             self.load.forced_releases += 1;
             return true;
         }
         false
+    }
+
+    /// Goal mode: limb `li` is held back, and waiting cannot end otherwise than in the
+    /// forced release. With every other limb planted (the clock waits, so no limb lifts
+    /// or lands: the grips and centre of mass stay as they are) only the filtered
+    /// acceleration still changes, decaying toward rest, and the residual moves by at
+    /// most `|Δa| / g` with it (nonexpansive: see [`Sloth::release_carried`]). If the
+    /// last check's residual, less its acceleration's whole share, still exceeds the
+    /// threshold, the body is not carried at rest either: the limb lets go now instead
+    /// of after [`RELEASE_MAX_WAIT_S`] (the same decision, without the idle second).
+    /// Wanderers wait as before (crowds unchanged).
+    fn wait_is_futile(&self, w: &LocoView<'_>, li: usize) -> bool {
+        if self.wander || self.goal.is_none() {
+            return false;
+        }
+        let others_planted = (0..4).all(|k| {
+            k == li
+                || (self.limbs[k].phase == LimbPhase::Planted && self.limbs[k].fallback.is_none())
+        });
+        if !others_planted {
+            return false;
+        }
+        let com = self.centre_of_mass(w);
+        let Some((limb, from, residual)) = self.load.release_from else {
+            return false;
+        };
+        if usize::from(limb) != li || !from.same_stance(&self.limbs, com) {
+            return false;
+        }
+        let share = from.acc.length() / load_params(w.cfg).gravity as f32;
+        residual - share > w.cfg.release_residual_bw + RELEASE_KEEP_MARGIN_BW
     }
 }
 
