@@ -127,11 +127,12 @@ fn formula6_heading(sum: Vec3, now: Vec3) -> Vec3 {
 
 /// Words of a `BodyKey`: the body (position, rotation), the weight shift, the hang side and flag,
 /// the transfer (flag, supports, side, away), then per limb its phase, grip
-/// point and support, and target.
-const BODY_KEY_LEN: usize = 7 + 3 + 4 + 9 + 4 * 8;
+/// point and support. Not the targets: see [`Sloth::body_average_memo`].
+const BODY_KEY_LEN: usize = 7 + 3 + 4 + 9 + 4 * 5;
 
 /// The bits of the fields [`Sloth::body_average`] reads or writes while no
-/// limb swings.
+/// limb swings, but the targets (each the bits of its grip's point where the
+/// memo is kept).
 type BodyKey = [u32; BODY_KEY_LEN];
 
 /// What [`Sloth::body_average_memo`] keeps of the sloth's last BodyAverage
@@ -381,26 +382,39 @@ impl Sloth {
 
     /// [`Sloth::body_average`], skipped where it would change nothing: while
     /// no limb swings it is a deterministic function of the fields in a
-    /// `BodyKey` (and of `env` and `dt`, fixed for a run); when they hold the
+    /// `BodyKey` and the targets (and of `env` and `dt`, fixed for a run);
+    /// when they hold the
     /// bits a call through `memo` left unchanged, this call would leave them
     /// unchanged again (a sloth between steps: about 40 % of the sloth-frames
     /// of a crowd). `memo` belongs to this sloth, `env` and `dt`.
     pub fn body_average_memo(&mut self, env: &LocoView<'_>, dt: f32, memo: &mut BodyMemo) {
         let armed = !self.any_swinging();
-        if armed && memo.fixed && self.body_key_is(&memo.key) {
+        if armed && memo.fixed && self.targets_on_grips() && self.body_key_is(&memo.key) {
             return;
         }
+        let on_grips = armed && self.targets_on_grips();
         if armed {
             let mut k = KeyBits::<BODY_KEY_LEN>::new();
             self.body_key_into(&mut k);
             memo.key = k.done();
         }
         self.body_average(env, dt);
-        memo.fixed = armed && self.body_key_is(&memo.key);
+        memo.fixed = on_grips && self.targets_on_grips() && self.body_key_is(&memo.key);
+    }
+
+    /// Whether every limb's target holds the bits of its grip's point. With
+    /// no limb swinging, BodyAverage sets each target to its grip's point, so
+    /// an update that changed nothing found them so: the memo's key holds the
+    /// grips' points once, and the targets are compared with the sloth's
+    /// grips (unchanged where the key matches) instead of a copy of their own.
+    fn targets_on_grips(&self) -> bool {
+        self.limbs.iter().all(|l| {
+            l.target.to_array().map(f32::to_bits) == l.grip.point.to_array().map(f32::to_bits)
+        })
     }
 
     /// Whether the bits of every field [`Sloth::body_average`] reads or
-    /// writes (while no limb swings) are `key`'s.
+    /// writes (while no limb swings), but the targets, are `key`'s.
     fn body_key_is(&self, key: &BodyKey) -> bool {
         let mut k = KeyEq::new(key);
         self.body_key_into(&mut k);
@@ -408,7 +422,7 @@ impl Sloth {
     }
 
     /// The bits of every field [`Sloth::body_average`] reads or writes while
-    /// no limb swings, in order.
+    /// no limb swings, but the targets ([`Sloth::targets_on_grips`]), in order.
     fn body_key_into(&self, k: &mut impl KeySink) {
         k.f32s(self.body_pos.to_array());
         k.f32s(self.body_rot.to_array());
@@ -427,7 +441,6 @@ impl Sloth {
             k.u32s([l.phase as u32]);
             k.f32s(l.grip.point.to_array());
             k.u32s([l.grip.support.0]);
-            k.f32s(l.target.to_array());
         }
     }
 

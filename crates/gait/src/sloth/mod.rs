@@ -109,29 +109,26 @@ pub struct Search {
 }
 
 /// One limb.
+///
+/// `repr(C)`, its fields in this order: what every frame of a sloth at rest
+/// reads comes first (grip, target, effector, phase, due, joints, the
+/// committed step's tag: the first 108 bytes), then what a solve reads and
+/// writes, then the swing's and the search's state. At 10,000 sloths a
+/// sloth's state comes from memory once a frame, so a frame costs the cache
+/// lines it touches (docs/performance.md, the tenth round).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[repr(C)]
 pub struct LimbState {
-    /// Phase.
-    pub phase: LimbPhase,
     /// Held grip (planted/searching) or the grip being swung to.
     pub grip: Grip,
-    /// Swing start point and normal.
-    pub from: Vec3,
-    /// Surface normal at the swing start.
-    pub from_normal: Vec3,
-    /// Support held at the swing start.
-    pub from_support: SupportId,
-    /// Swing progress 0..1.
-    pub swing_t: f32,
     /// IK target this frame.
     pub target: Vec3,
-    /// Warm-started IK pose.
-    #[serde(with = "pose_serde")]
-    pub pose: ChainPose,
-    /// Chain root this frame (world).
-    pub root: Vec3,
     /// Claw tip after IK (world).
     pub effector: Vec3,
+    /// Phase.
+    pub phase: LimbPhase,
+    /// The gait clock asked this limb to step and it has not yet.
+    pub due: bool,
     /// Joints 1..3 (elbow or knee, wrist or ankle, the hand's or foot's base)
     /// after IK (world), written with `effector` by every CcdSolve: with the
     /// effector, the limb's segments for the centre of mass
@@ -140,10 +137,16 @@ pub struct LimbState {
     /// BodyAverage. Not checkpointed (derived): `None` until the first solve.
     #[serde(skip)]
     pub joints: Option<[Vec3; 3]>,
-    /// Search state (valid while `Searching`).
-    pub search: Search,
-    /// The gait clock asked this limb to step and it has not yet.
-    pub due: bool,
+    /// A step this limb takes by a deadline unless its own search finds one
+    /// first: another limb's step was checked with this one lifting off on
+    /// the gait clock during its swing (`Sloth::next_lift`).
+    #[serde(default)]
+    pub fallback: Option<Fallback>,
+    /// Chain root this frame (world).
+    pub root: Vec3,
+    /// Warm-started IK pose.
+    #[serde(with = "pose_serde")]
+    pub pose: ChainPose,
     /// The target (chain-root frame) of the last solve, if that solve ended
     /// short of it (joint limits): the pose is settled there until the target
     /// moves (see [`Sloth::solve_limbs`]).
@@ -152,11 +155,16 @@ pub struct LimbState {
     /// limb's solve last failed to beat its warm solve: not tried again within
     /// `COLD_RETRY_MOVE` of it (cleared when the limb swings).
     pub cold_miss_ls: Option<Vec3>,
-    /// A step this limb takes by a deadline unless its own search finds one
-    /// first: another limb's step was checked with this one lifting off on
-    /// the gait clock during its swing (`Sloth::next_lift`).
-    #[serde(default)]
-    pub fallback: Option<Fallback>,
+    /// Search state (valid while `Searching`).
+    pub search: Search,
+    /// Swing start point and normal.
+    pub from: Vec3,
+    /// Surface normal at the swing start.
+    pub from_normal: Vec3,
+    /// Support held at the swing start.
+    pub from_support: SupportId,
+    /// Swing progress 0..1.
+    pub swing_t: f32,
 }
 
 /// A limb's committed step (see [`LimbState::fallback`]).

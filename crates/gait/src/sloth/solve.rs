@@ -35,16 +35,35 @@ const PULL_STEPS: usize = 3;
 const COLD_RETRY_GAIN: f32 = 5e-4;
 
 /// Words of a [`SolveKey`]: the body (position, rotation), then per limb its
-/// target, pose, settled target and cold-miss target (each with a flag),
-/// phase, root and effector.
-const SOLVE_KEY_LEN: usize = 7 + 4 * (3 + 16 + 4 + 4 + 1 + 3 + 3);
+/// target and phase: the fields [`Sloth::solve_limbs`] reads that other
+/// stages write.
+const SOLVE_KEY_LEN: usize = 7 + 4 * (3 + 1);
 
-/// The bits of the fields [`Sloth::solve_limbs`] reads or writes.
+/// The bits of the fields [`Sloth::solve_limbs`] reads that other stages write
+/// (see [`SolveMemo`]).
 type SolveKey = [u32; SOLVE_KEY_LEN];
+
+/// Words of a [`SolveOwn`]: per limb its pose, settled target and cold-miss
+/// target (each with a flag), root and effector.
+const SOLVE_OWN_LEN: usize = 4 * (16 + 4 + 4 + 3 + 3);
+
+/// The bits of the fields [`Sloth::solve_limbs`] reads or writes that only it
+/// writes (with the joints, which it only writes).
+type SolveOwn = [u32; SOLVE_OWN_LEN];
 
 /// What [`Sloth::solve_limbs_memo`] keeps of the sloth's last CcdSolve. The
 /// key is written in place before a solve and compared in place after it and
 /// in the next frame (no key is built to be compared, nor moved).
+///
+/// The key holds only the fields the solve reads that other stages write (the
+/// body, the targets, the phases: 92 bytes). The fields only the solve writes
+/// (poses, settled and cold-miss targets, roots, effectors, joints) are
+/// compared with their bits before the solve when it ends (a copy on the
+/// stack, see [`SolveMemo::keep`]), not kept: no other code of the tick writes
+/// them (spawning and loading a checkpoint start a new memo), so where the
+/// solve left them unchanged they hold those bits until the next solve. Code
+/// that writes them outside CcdSolve must reset the sloth's memo
+/// ([`SolveMemo::default`]). Debug builds keep them too and check that.
 #[derive(Clone, Copy, Debug)]
 pub struct SolveMemo {
     /// The state before the last solve (valid while `armed`).
@@ -55,6 +74,9 @@ pub struct SolveMemo {
     fixed: bool,
     /// That solve's sweep count.
     iterations: u32,
+    /// Debug builds: the fields only the solve writes, as it left them.
+    #[cfg(debug_assertions)]
+    own: SolveOwn,
 }
 
 impl Default for SolveMemo {
@@ -64,6 +86,8 @@ impl Default for SolveMemo {
             armed: false,
             fixed: false,
             iterations: 0,
+            #[cfg(debug_assertions)]
+            own: [0; SOLVE_OWN_LEN],
         }
     }
 }
@@ -72,24 +96,49 @@ impl SolveMemo {
     /// The sweep count of the unchanged solve whose state `sloth` holds, if it
     /// does (never while a limb swings: its target moves every frame).
     pub(super) fn hit(&self, sloth: &Sloth) -> Option<u32> {
-        (self.fixed && !sloth.any_swinging() && sloth.solve_key_is(&self.key))
-            .then_some(self.iterations)
+        let hit = self.fixed && !sloth.any_swinging() && sloth.solve_key_is(&self.key);
+        #[cfg(debug_assertions)]
+        if hit {
+            let mut k = KeyEq::new(&self.own);
+            sloth.solve_own_into(&mut k);
+            debug_assert!(
+                k.done(),
+                "a solve's own fields were written outside CcdSolve without resetting its memo"
+            );
+        }
+        hit.then_some(self.iterations)
     }
 
-    /// Before a solve of `sloth`: its state, where no limb swings.
-    fn arm(&mut self, sloth: &Sloth) {
+    /// Before a solve of `sloth`: its state, where no limb swings; returns
+    /// the fields only the solve writes, as they are before it (for
+    /// [`SolveMemo::keep`]).
+    fn arm(&mut self, sloth: &Sloth) -> Option<SolveOwn> {
         self.fixed = false;
         self.armed = !sloth.any_swinging();
-        if self.armed {
+        self.armed.then(|| {
             let mut k = KeyBits::<SOLVE_KEY_LEN>::new();
             sloth.solve_key_into(&mut k);
             self.key = k.done();
-        }
+            let mut o = KeyBits::<SOLVE_OWN_LEN>::new();
+            sloth.solve_own_into(&mut o);
+            o.done()
+        })
     }
 
-    /// After that solve: kept where it left the sloth unchanged.
-    fn keep(&mut self, sloth: &Sloth, iterations: u32) {
-        self.fixed = self.armed && sloth.solve_key_is(&self.key);
+    /// After that solve (`own`: what [`SolveMemo::arm`] returned): kept where
+    /// it left the sloth unchanged.
+    fn keep(&mut self, sloth: &Sloth, own: Option<&SolveOwn>, iterations: u32) {
+        self.fixed = self.armed
+            && own.is_some_and(|own| {
+                let mut k = KeyEq::new(own);
+                sloth.solve_own_into(&mut k);
+                k.done()
+            })
+            && sloth.solve_key_is(&self.key);
+        #[cfg(debug_assertions)]
+        if let (true, Some(own)) = (self.fixed, own) {
+            self.own = *own;
+        }
         self.iterations = iterations;
     }
 }
@@ -285,7 +334,9 @@ impl Sloth {
     /// phases, poses, settled targets) and of `env`; when all of those and the
     /// fields it writes (poses, settled targets, roots, effectors, body) hold
     /// exactly the bits that a call through `memo` left unchanged, this call
-    /// would leave them unchanged again: it returns that call's sweep count.
+    /// would leave them unchanged again: it returns that call's sweep count
+    /// (the memo compares the fields only the solve writes when it keeps a
+    /// solve, not again: see [`SolveMemo`]).
     /// A resting sloth's solves are such (about a third of the sloth-frames of
     /// a 10,000-sloth crowd). `memo` belongs to this sloth and to `env` (start it
     /// with [`SolveMemo::default`]).
@@ -293,17 +344,22 @@ impl Sloth {
         match memo.hit(self) {
             Some(iterations) => iterations,
             None => {
-                memo.arm(self);
-                self.solve_limbs_kept(env, memo)
+                let own = memo.arm(self);
+                self.solve_limbs_kept(env, memo, own.as_ref())
             }
         }
     }
 
-    /// [`Sloth::solve_limbs`] from the state `memo` was armed with, remembered
-    /// in `memo`.
-    fn solve_limbs_kept(&mut self, env: &LocoView<'_>, memo: &mut SolveMemo) -> u32 {
+    /// [`Sloth::solve_limbs`] from the state `memo` was armed with (`own`: what
+    /// its `arm` returned), remembered in `memo`.
+    fn solve_limbs_kept(
+        &mut self,
+        env: &LocoView<'_>,
+        memo: &mut SolveMemo,
+        own: Option<&SolveOwn>,
+    ) -> u32 {
         let iterations = self.solve_limbs(env);
-        memo.keep(self, iterations);
+        memo.keep(self, own, iterations);
         iterations
     }
 
@@ -318,50 +374,62 @@ impl Sloth {
     ) -> u64 {
         assert_eq!(sloths.len(), memos.len(), "one memo per sloth");
         let mut sweeps = 0u64;
-        // A sloth to solve, waiting for a partner (its memo armed).
-        let mut pending: Option<usize> = None;
+        // A sloth to solve, waiting for a partner (its memo armed), and its
+        // solve's own fields before the solve.
+        let mut pending: Option<(usize, Option<SolveOwn>)> = None;
         for i in 0..sloths.len() {
             let (sloth, memo) = (sloths[i].as_mut(), memos[i].as_mut());
             if let Some(n) = memo.hit(sloth) {
                 sweeps += u64::from(n);
                 continue;
             }
-            memo.arm(sloth);
-            let Some(j) = pending.take() else {
-                pending = Some(i);
+            let own = memo.arm(sloth);
+            let Some((j, own_j)) = pending.take() else {
+                pending = Some((i, own));
                 continue;
             };
             let (s_lo, s_hi) = sloths.split_at_mut(i);
             let (m_lo, m_hi) = memos.split_at_mut(i);
             let (a, b) = (s_lo[j].as_mut(), s_hi[0].as_mut());
             let [na, nb] = Sloth::solve_limbs_pair(a, b, env);
-            m_lo[j].as_mut().keep(a, na);
-            m_hi[0].as_mut().keep(b, nb);
+            m_lo[j].as_mut().keep(a, own_j.as_ref(), na);
+            m_hi[0].as_mut().keep(b, own.as_ref(), nb);
             sweeps += u64::from(na) + u64::from(nb);
         }
-        if let Some(j) = pending {
-            let n = sloths[j].as_mut().solve_limbs_kept(env, memos[j].as_mut());
+        if let Some((j, own)) = pending {
+            let n = sloths[j]
+                .as_mut()
+                .solve_limbs_kept(env, memos[j].as_mut(), own.as_ref());
             sweeps += u64::from(n);
         }
         sweeps
     }
 
-    /// Whether the bits of every field [`Sloth::solve_limbs`] reads or writes
-    /// are `key`'s.
+    /// Whether the bits of every field [`Sloth::solve_limbs`] reads that other
+    /// stages write are `key`'s.
     fn solve_key_is(&self, key: &SolveKey) -> bool {
         let mut k = KeyEq::new(key);
         self.solve_key_into(&mut k);
         k.done()
     }
 
-    /// The bits of every field [`Sloth::solve_limbs`] reads or writes, in
-    /// order: the body, then per limb its target, pose, settled and cold-miss
-    /// targets, phase, root and effector.
+    /// The bits of every field [`Sloth::solve_limbs`] reads that other stages
+    /// write, in order: the body, then per limb its target and phase.
     fn solve_key_into(&self, k: &mut impl KeySink) {
         k.f32s(self.body_pos.to_array());
         k.f32s(self.body_rot.to_array());
         for l in &self.limbs {
             k.f32s(l.target.to_array());
+            k.f32s([l.phase as u32 as f32]);
+        }
+    }
+
+    /// The bits of every field [`Sloth::solve_limbs`] reads or writes that
+    /// only it writes, in order, per limb: pose, settled and cold-miss
+    /// targets, root and effector (the joints, which it only writes, follow
+    /// from the roots and poses).
+    fn solve_own_into(&self, k: &mut impl KeySink) {
+        for l in &self.limbs {
             for q in l.pose.0 {
                 k.f32s(q.to_array());
             }
@@ -371,7 +439,6 @@ impl Sloth {
                     None => k.f32s([0.0; 4]),
                 }
             }
-            k.f32s([l.phase as u32 as f32]);
             k.f32s(l.root.to_array());
             k.f32s(l.effector.to_array());
         }
