@@ -157,12 +157,6 @@ pub struct LimbState {
     /// the gait clock during its swing (`Sloth::next_lift`).
     #[serde(default)]
     pub fallback: Option<Fallback>,
-    /// This limb's search (while `Searching`) only asks whether it has a step: the
-    /// release rule holds the limb back, and a wanderer whose search has failed
-    /// searches before it waits (`Sloth::transitions`). A step found is not taken:
-    /// the limb stays planted and due, and waits for the release rule.
-    /// Checkpointed (format 23).
-    pub probe: bool,
 }
 
 /// A limb's committed step (see [`LimbState::fallback`]).

@@ -66,7 +66,6 @@ impl Sloth {
             },
             due: false,
             settled_ls: None,
-            probe: false,
             cold_miss_ls: None,
             fallback: None,
         }; 4];
