@@ -277,6 +277,14 @@ pub struct Sloth {
     /// Autorun: no goal; at a dead end (or blocked by other sloths) turn
     /// back instead of stopping, and pick among neighbour supports by `seed`.
     pub wander: bool,
+    /// Whether its trace batch holds requests (`TraceBatch::len > 0`): set
+    /// where `queue_candidates` queues one, cleared where `step_search`
+    /// empties the batch. The crowd pass reads it instead of the batch's
+    /// `len` (a cache line of its own at rest) and skips an empty batch; true
+    /// with an empty batch is harmless (the batch is then run and searched as
+    /// before). A batch with requests must never meet a sloth with this false.
+    #[serde(default)]
+    pub traces_queued: bool,
     /// Off a trunk onto a branch (`transfer_to_branch`): that trunk, which
     /// the body still rolls clear of while it walks out of the fork, until
     /// a step search starts unrolled (see `Sloth::hang_roll`).
