@@ -45,7 +45,12 @@ const RELEASE_KEEP_MARGIN_BW: f32 = 1e-5;
 pub const RELEASE_MAX_WAIT_S: f32 = 1.0;
 
 /// Grip-load memory kept across frames (checkpointed, so resumed runs decide alike).
+///
+/// `repr(C)`: what the GripLoad stage reads every frame first (the centre of mass's
+/// filters, the kept inputs and loads), the counters and the release check's inputs
+/// (read only when a due limb asks to let go) last.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[repr(C)]
 pub struct LoadTrack {
     /// Last frame's centre of mass.
     pub com: Vec3,
@@ -53,25 +58,22 @@ pub struct LoadTrack {
     pub vel: Vec3,
     /// Filtered acceleration of the centre of mass.
     pub acc: Vec3,
-    /// Frames recorded (saturates at 3: position, velocity and acceleration valid).
-    pub samples: u8,
-    /// Frames in which a due limb waited because the others could not carry the body.
-    pub held_back_frames: u32,
-    /// Grip-load solves that failed (the limb then follows the thesis rule alone).
-    pub failures: u32,
     /// This frame's residual wrench (body weights), for the judge.
     pub residual_bw: f32,
-    /// Per limb, the time the release rule started holding it back (negative: not held).
-    pub held_since: [f32; 4],
-    /// Limbs that let go after waiting [`RELEASE_MAX_WAIT_S`].
-    pub forced_releases: u32,
+    /// Frames since the loads were last solved (see [`Sloth::grip_load`]'s `every`).
+    #[serde(default)]
+    pub skipped: u32,
+    /// Frames recorded (saturates at 3: position, velocity and acceleration valid).
+    pub samples: u8,
     /// Per limb, the limits of its grip set active in the last frame's loads (bits
     /// `slothsim_load::{PULL, PUSH, CONE}`): where the next frame's solve starts.
     #[serde(default)]
     pub active: [u8; 4],
-    /// Frames since the loads were last solved (see [`Sloth::grip_load`]'s `every`).
+    /// What the last loads solved were solved from (`None`: none yet, or that solve
+    /// failed): the stage keeps them while its inputs stay close to these
+    /// ([`LoadInputs::close_to`]).
     #[serde(default)]
-    pub skipped: u32,
+    pub solved_from: Option<LoadInputs>,
     /// Per limb, the force (N) it carried in the last loads solved (zero for a limb
     /// that swung): where the next solve's Newton steps start when a friction cone
     /// binds (`slothsim_load::solve_warm`).
@@ -83,11 +85,14 @@ pub struct LoadTrack {
     /// The residual torque (N·m) of the last loads solved.
     #[serde(default)]
     pub residual_torque: Vec3,
-    /// What the last loads solved were solved from (`None`: none yet, or that solve
-    /// failed): the stage keeps them while its inputs stay close to these
-    /// ([`LoadInputs::close_to`]).
-    #[serde(default)]
-    pub solved_from: Option<LoadInputs>,
+    /// Per limb, the time the release rule started holding it back (negative: not held).
+    pub held_since: [f32; 4],
+    /// Frames in which a due limb waited because the others could not carry the body.
+    pub held_back_frames: u32,
+    /// Grip-load solves that failed (the limb then follows the thesis rule alone).
+    pub failures: u32,
+    /// Limbs that let go after waiting [`RELEASE_MAX_WAIT_S`].
+    pub forced_releases: u32,
     /// The last release check solved: the limb asked about, the inputs and the residual
     /// (BW) the other grips left (see `Sloth::release_carried`).
     #[serde(default)]

@@ -185,9 +185,13 @@ fn sloth_pass(
                      points: &mut [CrowdPoints]| {
             let mut laps = Laps::new();
             let mut traced = 0;
-            for tr in traces.iter_mut() {
-                tr.0.run(&query);
-                traced += tr.0.len as u64;
+            // `traces_queued` instead of the batch's `len`: an empty batch's
+            // line is not touched.
+            for (s, tr) in states.iter().zip(traces.iter_mut()) {
+                if s.0.traces_queued {
+                    tr.0.run(&query);
+                    traced += tr.0.len as u64;
+                }
             }
             laps.lap(0);
             for (s, tr) in states.iter_mut().zip(traces.iter_mut()) {

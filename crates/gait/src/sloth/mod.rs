@@ -233,59 +233,58 @@ impl StuckCause {
 }
 
 /// One sloth.
+///
+/// `repr(C)`: the fields a frame of a sloth at rest reads come first (body,
+/// clock, status, hang and transfer state, then the limbs and the load
+/// track), the ones read only on a step or a failed search last
+/// (docs/performance.md, the tenth round). Checkpoints (postcard) write the
+/// fields in this order.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[repr(C)]
 pub struct Sloth {
-    /// Stable id (crowd neighbour checks skip the sloth's own points).
-    pub id: u32,
     /// Body position (model origin) and rotation (model +Z forward, +Y toward the support).
     pub body_pos: Vec3,
     /// Body rotation.
     pub body_rot: Quat,
-    /// Limbs by `Limb::index`.
-    pub limbs: [LimbState; 4],
+    /// Stable id (crowd neighbour checks skip the sloth's own points).
+    pub id: u32,
     /// Gait clock phase 0..1.
     pub clock: f32,
     /// +1: travel head first; −1: tail first (descending a trunk head-up).
     pub dir: f32,
     /// Simulated time.
     pub time: f32,
-    /// Status.
-    pub status: Status,
-    /// Goal: support and point, if any.
-    pub goal: Option<(SupportId, Vec3)>,
     /// Goal tolerance (metres).
     pub goal_tolerance: f32,
-    /// On a trunk goal: the unit direction from the trunk's axis toward the
-    /// body at the goal (the body moves around the axis with side steps until
-    /// it faces the trunk from there). `None`: any side.
+    /// Weight shift (issue 22, `Sloth::weight_shift`): the share of it the
+    /// body takes (0..1), lowered while a holding claw is left short.
     #[serde(default)]
-    pub goal_side: Option<Vec3>,
-    /// Step searches that found nothing since the last step taken.
-    pub failed_searches: u8,
-    /// Livelock watch outside transfers: the stances taken by steps made
-    /// while the search was failing (see [`Sloth::note_stuck_stance`]).
-    #[serde(default)]
-    pub stuck_stances: transfer::StanceRing,
-    /// Autorun: no goal; at a dead end (or blocked by other sloths) turn
-    /// back instead of stopping, and pick among neighbour supports by `seed`.
-    pub wander: bool,
-    /// Seed of this sloth's route choices (wander mode).
-    pub seed: u64,
-    /// Times this sloth turned back (wander mode); varies route choices.
-    pub turns: u32,
-    /// Turn-backs since the last step taken (wander mode).
-    pub stalled_turns: u8,
-    /// Branch ↔ trunk transfer in progress, if any.
-    pub transfer: Option<Transfer>,
+    pub shift_gain: f32,
     /// The share of `offset_back_m` the hind pair's swing onto a branch
     /// uses (the most its stance checks allowed).
     pub hind_back_scale: f32,
+    /// The weight shift the body has now (world, m; see `Sloth::weight_shift`).
+    #[serde(default)]
+    pub body_shift: Vec3,
     /// The side of its branch the body is on (from the paws' mean), kept
     /// while it rolls about the branch to clear a trunk: in the fork below a
     /// branch the roll goes that way (see `Sloth::hang_roll`). It is
     /// state, not read off the drawn body, so the step checks roll a stance
     /// the way the drawn body will.
     pub hang_side: Vec3,
+    /// Status.
+    pub status: Status,
+    /// Autorun: no goal; at a dead end (or blocked by other sloths) turn
+    /// back instead of stopping, and pick among neighbour supports by `seed`.
+    pub wander: bool,
+    /// Whether its trace batch holds requests (`TraceBatch::len > 0`): set
+    /// where `queue_candidates` queues one, cleared where `step_search`
+    /// empties the batch. The crowd pass reads it instead of the batch's
+    /// `len` (a cache line of its own at rest) and skips an empty batch; true
+    /// with an empty batch is harmless (the batch is then run and searched as
+    /// before). A batch with requests must never meet a sloth with this false.
+    #[serde(default)]
+    pub traces_queued: bool,
     /// Off a trunk onto a branch (`transfer_to_branch`): that trunk, which
     /// the body still rolls clear of while it walks out of the fork, until
     /// a step search starts unrolled (see `Sloth::hang_roll`).
@@ -293,19 +292,30 @@ pub struct Sloth {
     /// Wander mode, stopped (`NoGrip`): the time it tries again (the way
     /// may have been blocked by sloths that since moved on).
     pub resume_at: Option<f32>,
-    /// Grip loads: centre-of-mass history and the release rule's counters.
+    /// Goal: support and point, if any.
+    pub goal: Option<(SupportId, Vec3)>,
+    /// On a trunk goal: the unit direction from the trunk's axis toward the
+    /// body at the goal (the body moves around the axis with side steps until
+    /// it faces the trunk from there). `None`: any side.
     #[serde(default)]
-    pub load: crate::load::LoadTrack,
-    /// Weight shift (issue 22, `Sloth::weight_shift`): the share of it the
-    /// body takes (0..1), lowered while a holding claw is left short.
+    pub goal_side: Option<Vec3>,
+    /// Branch ↔ trunk transfer in progress, if any.
+    pub transfer: Option<Transfer>,
+    /// Turning around at a branch end, if under way (see `turn.rs`).
     #[serde(default)]
-    pub shift_gain: f32,
-    /// The weight shift the body has now (world, m; see `Sloth::weight_shift`).
-    #[serde(default)]
-    pub body_shift: Vec3,
+    pub turn: Option<Turn>,
     /// Goal mode: a back-off under way, re-planning a stuck step (see `replan.rs`).
     #[serde(default)]
     pub backoff: Option<Backoff>,
+    /// Limbs by `Limb::index`.
+    pub limbs: [LimbState; 4],
+    /// Grip loads: centre-of-mass history and the release rule's counters.
+    #[serde(default)]
+    pub load: crate::load::LoadTrack,
+    /// Step searches that found nothing since the last step taken.
+    pub failed_searches: u8,
+    /// Turn-backs since the last step taken (wander mode).
+    pub stalled_turns: u8,
     /// Goal mode: re-plans made (each a back-off started or ended early).
     #[serde(default)]
     pub replans: u8,
@@ -317,15 +327,20 @@ pub struct Sloth {
     /// failed). Not part of the state hash: a diagnosis, not locomotion.
     #[serde(default)]
     pub stuck_cause: Option<StuckCause>,
-    /// Turning around at a branch end, if under way (see `turn.rs`).
-    #[serde(default)]
-    pub turn: Option<Turn>,
+    /// Times this sloth turned back (wander mode); varies route choices.
+    pub turns: u32,
+    /// Seed of this sloth's route choices (wander mode).
+    pub seed: u64,
     /// Wander mode: where the body was at the first turn-back since it last
     /// travelled a max step, and the turn-backs since (see
     /// `Sloth::note_step`): steps that leave the body near where it turned
     /// back do not end this stall, as they end [`Self::stalled_turns`].
     #[serde(default)]
     pub stall_from: Option<(Vec3, u8)>,
+    /// Livelock watch outside transfers: the stances taken by steps made
+    /// while the search was failing (see [`Sloth::note_stuck_stance`]).
+    #[serde(default)]
+    pub stuck_stances: transfer::StanceRing,
 }
 
 /// Serde for [`ChainPose`] (four quaternions, bit-exact through serde's f32).

@@ -59,6 +59,12 @@ impl Sloth {
     /// first valid one becomes the limb's new grip and its swing starts. Limbs
     /// still searching queue their next candidates into `batch`.
     pub fn step_search(&mut self, env: &LocoView<'_>, batch: &mut TraceBatch) {
+        // Nothing queued and no limb searching: the batch is empty and stays
+        // so (what follows would read and clear an empty batch).
+        if !self.traces_queued && self.limbs.iter().all(|l| l.phase != LimbPhase::Searching) {
+            debug_assert_eq!(batch.len, 0, "a queued batch with traces_queued unset");
+            return;
+        }
         let mut chosen = [false; 4];
         for i in 0..batch.len {
             let m = batch.meta[i];
@@ -188,6 +194,7 @@ impl Sloth {
             self.note_stuck_stance(env, li, failing);
         }
         batch.len = 0;
+        self.traces_queued = false;
         for li in 0..4 {
             if self.limbs[li].phase == LimbPhase::Searching {
                 self.queue_candidates(env, li, batch);
@@ -257,6 +264,7 @@ impl Sloth {
                 }
                 if batch.push(found.0, found.1) {
                     queued += 1;
+                    self.traces_queued = true;
                 } else {
                     u += sr.sdir * coarse;
                     break;

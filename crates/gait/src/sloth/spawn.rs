@@ -110,6 +110,7 @@ impl Sloth {
             failed_searches: 0,
             stuck_stances: Default::default(),
             wander: false,
+            traces_queued: false,
             seed: 0,
             turns: 0,
             stalled_turns: 0,
