@@ -290,15 +290,15 @@ impl Sloth {
         } else {
             side
         };
-        // Set up from a stance already across the trunk and the target (a
-        // limb holds each): no step is taken, yet the body is drawn rolled
-        // at once, so no step's checks see it. It is set up only where every
+        // Set up from a stance already across the trunk and another support
+        // (a limb holds each): no step is taken, yet the body is drawn
+        // rolled at once, so no step's checks see it. It is set up only where every
         // limb still reaches its grip with that body, clear of the supports
         // (set up so, with LF and RF on two branches and the hind limbs on
         // the trunk, a crowd sloth's body jumped 5 cm, 18.7 mm into a
         // support).
-        let across = |s: SupportId| self.limbs.iter().any(|l| l.grip.support == s);
-        if across(to) && across(trunk) {
+        let holds = |f: &dyn Fn(SupportId) -> bool| self.limbs.iter().any(|l| f(l.grip.support));
+        if holds(&|s| s == trunk) && holds(&|s| s != trunk) {
             let probe = Sloth {
                 transfer: Some(transfer(side)),
                 ..*self
