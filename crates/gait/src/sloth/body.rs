@@ -687,14 +687,20 @@ impl Sloth {
         metres: f32,
         approach: Option<SupportId>,
     ) -> f32 {
-        // A transfer only set up by a search (no limb on its target yet)
+        // A transfer only set up by a search (no limb across yet)
         // rolls nothing: one that is not taken leaves no jump behind.
         // Nor does a tail-first one onto a trunk (`Sloth::descends_tail_first`):
         // the body heads out from the trunk there all along, so it would roll
         // the moment the first hind limb lifts off toward the trunk, a jump
         // the step's checks (drawn before it) never saw.
+        // Under way: a limb holds its target, or limbs hold its trunk and
+        // another support (a neighbour a step went onto off the target, where
+        // the transfer goes on: `transfer_not_taken`), so the roll neither
+        // drops nor returns as a limb lifts off the target or lands off it.
         let under_way = self.transfer.filter(|tr| {
-            self.limbs.iter().any(|l| l.grip.support == tr.to)
+            let holds =
+                |f: &dyn Fn(SupportId) -> bool| self.limbs.iter().any(|l| f(l.grip.support));
+            (holds(&|s| s == tr.to) || (holds(&|s| s == tr.trunk) && holds(&|s| s != tr.trunk)))
                 && !(tr.to == tr.trunk && tr.dir < 0.0)
         });
         // Leaving the trunk for a branch (a transfer onto a branch, or

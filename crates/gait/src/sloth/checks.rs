@@ -14,6 +14,7 @@ use super::body::{
 };
 use super::collide::{torso_box_meets, torso_within};
 use super::solve::lanes8;
+use super::transfer::transfer_not_taken;
 use super::turn::{Turn, TurnStep};
 use super::{Grip, LimbPhase, LimbState, LocoView, Sloth};
 
@@ -370,11 +371,13 @@ impl Sloth {
                 self.limbs[k].grip.support
             }
         };
+        // Or, where limbs still hold the trunk and another support, it goes
+        // on onto that one (`transfer_not_taken`): checked that way too.
         let ended = self
             .transfer
             .filter(|t| (0..4).all(|k| held(k) != t.to))
-            .map(|_| Sloth {
-                transfer: None,
+            .map(|t| Sloth {
+                transfer: transfer_not_taken(t, [0, 1, 2, 3].map(held)),
                 ..*self
             });
         let after = ended.as_ref().unwrap_or(self);

@@ -81,10 +81,29 @@ impl Sloth {
                 continue;
             }
             // Release rule (issue 22): the grips that stay must carry the body.
+            let hold_starts = self.load.held_since[li] < 0.0;
             if !self.release_allowed(env, li) {
                 if !held_back {
                     held_back = true;
                     self.load.held_back_frames += 1;
+                }
+                // A wanderer whose search has failed searches first, as it
+                // starts being held: a search that fails is counted at once,
+                // not after the wait (on a trunk, where the rule holds most
+                // limbs about 1 s, eight failed searches took ~14 s, longer
+                // than the crowd's 10 s stuck window). A step it finds is not
+                // taken: the limb waits as before and searches again when
+                // the rule lets it go, so every step taken keeps the rule.
+                if hold_starts && self.probes_before_release() {
+                    if self.limbs.iter().all(|l| l.phase == LimbPhase::Planted) {
+                        self.keep_hang_side(env);
+                    }
+                    self.limbs[li].phase = LimbPhase::Searching;
+                    self.limbs[li].probe = true;
+                    self.limbs[li].search = self
+                        .goal_branch_search(env, li)
+                        .unwrap_or_else(|| self.own_search(env, li));
+                    self.queue_candidates(env, li, batch);
                 }
                 continue;
             }
@@ -104,10 +123,100 @@ impl Sloth {
                 self.keep_hang_side(env);
             }
             self.limbs[li].phase = LimbPhase::Searching;
+            self.limbs[li].probe = false;
             self.limbs[li].search = self
                 .goal_branch_search(env, li)
                 .unwrap_or_else(|| self.own_search(env, li));
             self.queue_candidates(env, li, batch);
         }
+    }
+
+    /// Whether a limb the release rule starts holding back searches first
+    /// (see [`Sloth::transitions`]): a wanderer, not turning, whose search
+    /// has failed since its last step.
+    fn probes_before_release(&self) -> bool {
+        self.wander && self.turn.is_none() && self.failed_searches > 0
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use slothsim_scene::PresetKind;
+
+    use super::super::test_util::{preset_sloth, tick};
+    use super::*;
+
+    /// A wanderer whose search has failed searches before the release rule's
+    /// wait (`Sloth::probes_before_release`): a search that fails is counted
+    /// in the frame it ends, the limb's wait over; a search that finds a step
+    /// takes none, and the limb waits, planted and due, as before. Every
+    /// preset's sloth made a wanderer, the rule made to hold back nearly every
+    /// limb (the lowest residual the config allows), a failed search kept on
+    /// the count.
+    #[test]
+    fn a_failed_wanderer_searches_before_the_release_wait() {
+        let (mut found, mut failed, mut steps) = (0, 0, 0);
+        // Also with no step anywhere: every search range empty (its shortest
+        // step past its longest).
+        for (kind, no_step) in PresetKind::ALL
+            .map(|k| (k, false))
+            .into_iter()
+            .chain([PresetKind::Trunk, PresetKind::Turn].map(|k| (k, true)))
+        {
+            let (mut env, mut sloth) = preset_sloth(kind);
+            env.cfg.release_residual_bw = 1e-4;
+            if no_step {
+                env.cfg.min_step_m = env.cfg.search_distance_m + 0.1;
+            }
+            let view = env.view();
+            sloth.wander = true;
+            let mut batch = TraceBatch::default();
+            for _ in 0..900 {
+                if sloth.failed_searches == 0 {
+                    sloth.failed_searches = 1;
+                }
+                let before = sloth;
+                tick(&mut sloth, &view, &mut batch);
+                for li in 0..4 {
+                    let (a, b) = (before.limbs[li], sloth.limbs[li]);
+                    if a.phase == LimbPhase::Searching && !a.probe {
+                        steps += usize::from(b.phase == LimbPhase::Swinging);
+                    }
+                    if !(a.phase == LimbPhase::Searching && a.probe) || b.probe {
+                        continue;
+                    }
+                    // The probe ended this tick (`step_search`), and the clock
+                    // may have started the limb's search again (released).
+                    assert_ne!(b.phase, LimbPhase::Swinging, "{kind:?} limb {li}");
+                    if b.due || b.phase == LimbPhase::Searching {
+                        found += 1;
+                        // The wait goes on from where it started, or the rule
+                        // let the limb go this tick.
+                        let since = sloth.load.held_since[li];
+                        assert!(
+                            since == before.load.held_since[li]
+                                || (since < 0.0 && b.phase == LimbPhase::Searching),
+                            "{kind:?} limb {li}: held since {since}"
+                        );
+                    }
+                }
+                if no_step {
+                    failed += usize::from(
+                        sloth.failed_searches > before.failed_searches
+                            || sloth.stuck_cause.is_some() && before.stuck_cause.is_none(),
+                    );
+                }
+            }
+            if no_step {
+                // Held back, yet no limb waited out the rule's second: each
+                // search failed as the wait began.
+                assert!(sloth.load.held_back_frames > 0, "{kind:?}");
+                assert_eq!(sloth.load.forced_releases, 0, "{kind:?}");
+            }
+        }
+        assert!(
+            found > 0 && failed > 0 && steps > 0,
+            "{found} {failed} {steps}"
+        );
     }
 }

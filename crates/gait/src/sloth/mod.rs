@@ -165,6 +165,12 @@ pub struct LimbState {
     pub from_support: SupportId,
     /// Swing progress 0..1.
     pub swing_t: f32,
+    /// This limb's search (while `Searching`) only asks whether it has a step: the
+    /// release rule holds the limb back, and a wanderer whose search has failed
+    /// searches before it waits (`Sloth::transitions`). A step found is not taken:
+    /// the limb stays planted and due, and waits for the release rule.
+    /// Checkpointed (format 24).
+    pub probe: bool,
 }
 
 /// A limb's committed step (see [`LimbState::fallback`]).

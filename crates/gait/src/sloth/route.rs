@@ -214,7 +214,9 @@ impl Sloth {
             return None;
         }
         let transfer = self.transfer;
-        self.begin_transfer(env, li, cur, gs);
+        if !self.begin_transfer(env, li, cur, gs) {
+            return None;
+        }
         // Neighbours count as tried: once the branch is exhausted the limb
         // searches the trunk, then retreats (see `queue_candidates`).
         let tried = u16::try_from(neighbours.len()).unwrap_or(u16::MAX - 1);
@@ -295,8 +297,10 @@ impl Sloth {
             }
             // A branch ↔ trunk change: the transfer (and its side) is set up
             // first, as the search on the new support depends on it.
-            if scene.support(sid).kind != scene.support(cur.support).kind {
-                self.begin_transfer(env, li, cur.support, sid);
+            if scene.support(sid).kind != scene.support(cur.support).kind
+                && !self.begin_transfer(env, li, cur.support, sid)
+            {
+                continue;
             }
             if let Some(search) = self.neighbour_search(env, li, sid, k as u16) {
                 self.limbs[li].search = search;

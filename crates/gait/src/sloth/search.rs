@@ -163,6 +163,12 @@ impl Sloth {
             if self.stuck_cause.is_none() && !self.leaves_a_step(env, li, grip, pair_grip) {
                 continue;
             }
+            // A search made only to know whether there is a step: there is,
+            // and the limb waits for the release rule (`Sloth::transitions`).
+            if self.limbs[li].probe {
+                self.end_probe(li, true);
+                continue;
+            }
             let failing = self.failed_searches > 0;
             for (lj, g) in std::iter::once((li, grip)).chain(pair_grip) {
                 chosen[lj] = true;
@@ -173,6 +179,7 @@ impl Sloth {
                 l.grip = g;
                 l.phase = LimbPhase::Swinging;
                 l.swing_t = 0.0;
+                l.probe = false;
                 // Its own search found a step: a committed one is void.
                 l.fallback = None;
                 if lj != li {
@@ -286,11 +293,18 @@ impl Sloth {
             // This support is exhausted: try the next neighbour, then a retreat.
             // Nothing better than a committed step: take it.
             if self.limbs[li].fallback.is_some() {
-                self.start_fallback_swing(env, li);
+                if self.limbs[li].probe {
+                    self.end_probe(li, true);
+                } else {
+                    self.start_fallback_swing(env, li);
+                }
                 return;
             }
             if !self.next_neighbour(env, li) && !self.start_retreat(env, li) {
                 // Nothing anywhere: stay planted.
+                if self.limbs[li].probe {
+                    self.end_probe(li, false);
+                }
                 let l = &mut self.limbs[li];
                 l.phase = LimbPhase::Planted;
                 l.due = false;
@@ -561,6 +575,19 @@ impl Sloth {
         l.swing_t = 0.0;
         l.due = false;
         self.note_step(env);
+    }
+
+    /// Ends limb `li`'s search made before the release rule lets it go
+    /// ([`LimbState::probe`]). It `found` a step: the limb is planted and
+    /// due again, held as before. It found none: the failure counts as any
+    /// search's (the caller's), and the limb's wait is over with its turn.
+    fn end_probe(&mut self, li: usize, found: bool) {
+        let l = &mut self.limbs[li];
+        l.probe = false;
+        l.phase = LimbPhase::Planted;
+        if !found {
+            self.load.held_since[li] = -1.0;
+        }
     }
 
     /// A step was taken: the search's failures and the turn-backs without a

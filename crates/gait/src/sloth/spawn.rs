@@ -66,6 +66,7 @@ impl Sloth {
             },
             due: false,
             settled_ls: None,
+            probe: false,
             cold_miss_ls: None,
             fallback: None,
         }; 4];

@@ -134,6 +134,36 @@ fn visit_stance(
     }
 }
 
+/// Transfer `tr` once no limb holds its target, the limbs holding
+/// `held`. Not taken. But where limbs hold the trunk and other supports (a
+/// step went onto a neighbour of the branch), the body is still between a
+/// trunk and a branch: the transfer goes on onto the other support most
+/// limbs hold (ties: the first limb's), with its side and its roll, so the
+/// body is drawn as before. Ending it jumped the body 0.38 m in one frame
+/// with one other support; with two (LF and RF on two branches, the hind
+/// limbs on the trunk: seed 3 of the 5,000-sloth crowd under the
+/// searching-before-the-wait rule) 17.6 cm, and a transfer set up again
+/// from that stance 5 cm back, 18.7 mm into a support. `None`: no limb on
+/// the trunk (the transfer undone, or all on other supports).
+pub(super) fn transfer_not_taken(tr: Transfer, held: [SupportId; 4]) -> Option<Transfer> {
+    if !held.contains(&tr.trunk) {
+        return None;
+    }
+    let count = |s: SupportId| held.iter().filter(|&&h| h == s).count();
+    let to = held.iter().copied().filter(|&s| s != tr.trunk).fold(
+        None,
+        |best: Option<SupportId>, s| match best {
+            Some(b) if count(b) >= count(s) => Some(b),
+            _ => Some(s),
+        },
+    )?;
+    Some(Transfer {
+        to,
+        stance_count: 0,
+        ..tr
+    })
+}
+
 fn plus_one() -> f32 {
     1.0
 }
@@ -143,19 +173,21 @@ impl Sloth {
     /// under way: a limb holds its target) and picks, once, the side of the
     /// trunk the body faces it from. Onto a trunk: beside the branch (the head is eased
     /// sideways away from it), on the side the body leans to, else on a side
-    /// of this sloth's own; off a trunk: the side the body is on.
+    /// of this sloth's own; off a trunk: the side the body is on. False:
+    /// not set up, as the body it would draw at once does not hold (see
+    /// below).
     pub(super) fn begin_transfer(
         &mut self,
         env: &LocoView<'_>,
         li: usize,
         from: SupportId,
         to: SupportId,
-    ) {
+    ) -> bool {
         if self
             .transfer
             .is_some_and(|t| self.limbs.iter().any(|l| l.grip.support == t.to))
         {
-            return;
+            return true;
         }
         let scene = env.scene();
         let onto_trunk = scene.support(to).kind == SupportKind::Trunk;
@@ -258,7 +290,25 @@ impl Sloth {
         } else {
             side
         };
+        // Set up from a stance already across the trunk and another support
+        // (a limb holds each): no step is taken, yet the body is drawn
+        // rolled at once, so no step's checks see it. It is set up only where every
+        // limb still reaches its grip with that body, clear of the supports
+        // (set up so, with LF and RF on two branches and the hind limbs on
+        // the trunk, a crowd sloth's body jumped 5 cm, 18.7 mm into a
+        // support).
+        let holds = |f: &dyn Fn(SupportId) -> bool| self.limbs.iter().any(|l| f(l.grip.support));
+        if holds(&|s| s == trunk) && holds(&|s| s != trunk) {
+            let probe = Sloth {
+                transfer: Some(transfer(side)),
+                ..*self
+            };
+            if !probe.stance_holds(env) {
+                return false;
+            }
+        }
         self.transfer = Some(transfer(side));
+        true
     }
 
     /// Re-planning a transfer onto a trunk locked half way (goal mode, issue
@@ -461,21 +511,7 @@ impl Sloth {
             .iter()
             .all(|l| l.phase == LimbPhase::Planted && l.grip.support != tr.to)
         {
-            // Not taken. But where limbs hold the trunk and another support
-            // (a step went onto a neighbour of the branch), the body is still
-            // between a trunk and a branch: the transfer goes on onto that
-            // one (ending it here jumped the body 0.38 m in one frame).
-            let others = self.limbs.map(|l| l.grip.support);
-            let other = others.iter().copied().find(|&s| s != tr.trunk);
-            let one_other = other.filter(|&o| others.iter().all(|&s| s == tr.trunk || s == o));
-            self.transfer = match one_other {
-                Some(to) if others.contains(&tr.trunk) => Some(Transfer {
-                    to,
-                    stance_count: 0,
-                    ..tr
-                }),
-                _ => None,
-            };
+            self.transfer = transfer_not_taken(tr, self.limbs.map(|l| l.grip.support));
             return;
         }
         if !self
@@ -606,5 +642,116 @@ impl Sloth {
             l.phase == LimbPhase::Swinging && l.from_support == tr.trunk && l.grip.support == tr.to
         });
         (pair && tr.to != tr.trunk).then_some(lh.swing_t.min(rh.swing_t))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use slothsim_scene::{SupportId, SupportKind};
+
+    use slothsim_rig::Rig;
+    use slothsim_scene::{Preset, Scene, Support, TraceScene};
+
+    use super::super::test_util::tick;
+    use super::super::{SpawnHint, TraceBatch};
+    use super::*;
+    use crate::{LocoEnv, LocomotionConfig, Profile};
+
+    /// A transfer whose target no limb holds any more, every limb planted,
+    /// the limbs on its trunk and on two other branches (LF and RF on two
+    /// branches, the hind limbs on the trunk: a crowd sloth's fore limb had
+    /// landed off the target): it goes on (`transfer_not_taken`) onto the
+    /// branch most limbs hold, and the body is drawn as before, to the bit.
+    /// Ending it redrew the body without the transfer's roll at once, no
+    /// step taken (17.6 cm in one frame in the crowd). Every stance, no limb
+    /// swinging, of branch_trunk run trunk → branch (120 s) with two limbs or
+    /// more on the transfer's branch and one on the trunk: those limbs
+    /// relabelled onto two branches far away that no limb holds.
+    #[test]
+    fn a_transfer_off_its_target_goes_on_without_a_jump() {
+        // The branch_trunk preset (a branch meeting a trunk) and two
+        // branches far from it, no limb's.
+        let preset = Preset::by_name("branch_trunk", None).unwrap();
+        let mut supports = preset.scene.supports().to_vec();
+        for z in [20.0, 30.0] {
+            supports.push(
+                Support::new(
+                    vec![Vec3::new(0.0, 3.0, z), Vec3::new(2.0, 3.0, z)],
+                    vec![0.05; 2],
+                )
+                .with_kind(SupportKind::Branch),
+            );
+        }
+        let scene = Scene::new(supports).unwrap();
+        let cfg = LocomotionConfig::profile(Profile::Free);
+        let env = LocoEnv::new(cfg, &Rig::sloth(), TraceScene::new(scene)).unwrap();
+        let view = env.view();
+        // Run the other way (trunk → branch), as the transfer matrix's
+        // trunk_branch does: from the trunk below the junction, head up, the
+        // body 60° around it from the branch's side, to where branch_trunk
+        // starts.
+        let (mut s, mut g) = (preset.start, preset.goal);
+        let b = preset.scene.support(s.support);
+        let along = b.nodes[b.nodes.len() - 1] - b.nodes[0];
+        let away = Vec3::new(along.x, 0.0, along.z).normalize_or(Vec3::X);
+        let angle = 60f32.to_radians();
+        (s.support, g.support) = (g.support, s.support);
+        std::mem::swap(&mut s.position, &mut g.point);
+        s.forward = Vec3::Y;
+        s.body_side = away * angle.cos() + Vec3::Y.cross(away) * angle.sin();
+        let hint = SpawnHint {
+            support: s.support,
+            position: s.position,
+            forward: s.forward,
+            body_side: s.body_side,
+        };
+        let mut sloth = Sloth::spawn(&view, &hint, Some((g.support, g.point, g.tolerance)));
+        sloth.goal_side = g.side;
+        let mut batch = TraceBatch::default();
+        let mut cases = 0;
+        for frame in 0..7200 {
+            tick(&mut sloth, &view, &mut batch);
+            check(&view, frame, sloth, &mut cases);
+        }
+        assert!(cases > 20, "{cases} stances tried");
+    }
+
+    fn check(view: &LocoView<'_>, frame: usize, sloth: Sloth, cases: &mut usize) {
+        let Some(tr) = sloth.transfer else { return };
+        let held = sloth.limbs.map(|l| l.grip.support);
+        let on_to: Vec<usize> = (0..4).filter(|&k| held[k] == tr.to).collect();
+        if sloth.limbs.iter().any(|l| l.phase != LimbPhase::Planted)
+            || tr.to == tr.trunk
+            || !held.contains(&tr.trunk)
+            || on_to.len() < 2
+        {
+            return;
+        }
+        let scene = view.scene();
+        let spare: Vec<SupportId> = (0..scene.supports().len() as u32)
+            .map(SupportId)
+            .filter(|&s| scene.support(s).kind == SupportKind::Branch && !held.contains(&s))
+            .take(2)
+            .collect();
+        let [a, b] = spare[..] else { return };
+        let mut s = sloth;
+        s.limbs[on_to[0]].grip.support = a;
+        for &k in &on_to[1..] {
+            s.limbs[k].grip.support = b;
+        }
+        let before = s.averaged_body(view);
+        s.finish_transfer(view);
+        let after = s.averaged_body(view);
+        assert_eq!(
+            s.transfer.map(|t| t.to),
+            Some(if on_to.len() > 2 { b } else { a }),
+            "frame {frame}"
+        );
+        assert!(
+            before.0 == after.0 && before.1 == after.1,
+            "frame {frame}: the body jumped {:.4} m",
+            before.0.distance(after.0)
+        );
+        *cases += 1;
     }
 }
