@@ -169,7 +169,7 @@ pub struct LimbState {
     /// release rule holds the limb back, and a wanderer whose search has failed
     /// searches before it waits (`Sloth::transitions`). A step found is not taken:
     /// the limb stays planted and due, and waits for the release rule.
-    /// Checkpointed (format 24).
+    /// Checkpointed (format 25).
     pub probe: bool,
 }
 
