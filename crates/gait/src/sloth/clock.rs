@@ -95,15 +95,7 @@ impl Sloth {
                 // taken: the limb waits as before and searches again when
                 // the rule lets it go, so every step taken keeps the rule.
                 if hold_starts && self.probes_before_release() {
-                    if self.limbs.iter().all(|l| l.phase == LimbPhase::Planted) {
-                        self.keep_hang_side(env);
-                    }
-                    self.limbs[li].phase = LimbPhase::Searching;
-                    self.limbs[li].probe = true;
-                    self.limbs[li].search = self
-                        .goal_branch_search(env, li)
-                        .unwrap_or_else(|| self.own_search(env, li));
-                    self.queue_candidates(env, li, batch);
+                    self.start_search(env, li, batch, true);
                 }
                 continue;
             }
@@ -119,16 +111,23 @@ impl Sloth {
                 continue;
             }
             self.limbs[li].due = false;
-            if self.limbs.iter().all(|l| l.phase == LimbPhase::Planted) {
-                self.keep_hang_side(env);
-            }
-            self.limbs[li].phase = LimbPhase::Searching;
-            self.limbs[li].probe = false;
-            self.limbs[li].search = self
-                .goal_branch_search(env, li)
-                .unwrap_or_else(|| self.own_search(env, li));
-            self.queue_candidates(env, li, batch);
+            self.start_search(env, li, batch, false);
         }
+    }
+
+    /// Limb `li` starts its step search (its goal's branch first, else its own
+    /// support) and queues the first candidates; `probe`: a search made before
+    /// the release rule lets the limb go (its step, if found, is not taken).
+    fn start_search(&mut self, env: &LocoView<'_>, li: usize, batch: &mut TraceBatch, probe: bool) {
+        if self.limbs.iter().all(|l| l.phase == LimbPhase::Planted) {
+            self.keep_hang_side(env);
+        }
+        self.limbs[li].phase = LimbPhase::Searching;
+        self.limbs[li].probe = probe;
+        self.limbs[li].search = self
+            .goal_branch_search(env, li)
+            .unwrap_or_else(|| self.own_search(env, li));
+        self.queue_candidates(env, li, batch);
     }
 
     /// Whether a limb the release rule starts holding back searches first
