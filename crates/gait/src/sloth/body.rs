@@ -904,7 +904,7 @@ impl Sloth {
     /// blends its old and new support as it travels, so the body offset that
     /// depends on it (see [`body_offset`]) changes continuously.
     pub(super) fn trunk_weights(&self, env: &LocoView<'_>) -> [f32; 4] {
-        self.limbs.map(|l| match l.phase {
+        self.limb_map(|l| match l.phase {
             LimbPhase::Swinging => trunk_blend(env, l.from_support, l.grip.support, l.swing_t),
             _ => trunk_blend(env, l.grip.support, l.grip.support, 1.0),
         })

@@ -498,7 +498,7 @@ impl Sloth {
     /// and the holding tolerance, with the body drawn at those grips now
     /// (formulas 6, 7), and that body is clear of the supports.
     pub(super) fn stance_holds(&self, env: &LocoView<'_>) -> bool {
-        let grips = self.limbs.map(|l| l.grip.point);
+        let grips = self.limb_map(|l| l.grip.point);
         let offset = body_offset(env, self.trunk_weights(env));
         let stance = self
             .place_stance(env, grips, [HOLD_IK_TOLERANCE; 4], offset)
@@ -631,7 +631,7 @@ impl Sloth {
         times.sort_by(f32::total_cmp);
         let offset = body_offset(env, self.trunk_weights(env));
         let down = self.body_rot * Vec3::NEG_Y;
-        let cur = self.limbs.map(|l| (l.grip.point, l.grip.normal));
+        let cur = self.limb_map(|l| (l.grip.point, l.grip.normal));
         let swings = [
             (li, (grip, normal), 0.0, dur_i),
             (lj, (to.point, to.normal), start_s, dur_j),
@@ -700,7 +700,7 @@ impl Sloth {
         step: &TurnStep,
     ) -> bool {
         let li = step.limb;
-        let from = self.limbs.map(|l| (l.grip.point, l.grip.normal));
+        let from = self.limb_map(|l| (l.grip.point, l.grip.normal));
         let offset = body_offset(env, self.trunk_weights(env));
         let turning = Turn {
             to: step.to,
@@ -880,7 +880,7 @@ impl Sloth {
         order.chunks(2).all(|ks| match *ks {
             [a, b] => {
                 let (sa, sb) = (&stances[a], &stances[b]);
-                let pose = self.limbs.map(|l| l.pose);
+                let pose = self.limb_map(|l| l.pose);
                 let mut poses = lanes8(pose, pose);
                 let r = slothsim_rig::solve8_prepared_tolerances(
                     &env.rig.chains4,
@@ -898,7 +898,7 @@ impl Sloth {
             }
             [k] => {
                 let st = &stances[k];
-                let mut poses = self.limbs.map(|l| l.pose);
+                let mut poses = self.limb_map(|l| l.pose);
                 let r = slothsim_rig::solve4_prepared_tolerances(
                     &env.rig.chains4,
                     st.roots,

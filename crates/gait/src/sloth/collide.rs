@@ -319,7 +319,7 @@ impl Sloth {
         &self,
         env: &'w LocoView<'_>,
     ) -> impl Iterator<Item = SupportId> + 'w {
-        let held = self.limbs.map(|l| l.grip.support);
+        let held = self.limb_map(|l| l.grip.support);
         (0..4)
             .filter(move |&k| !held[..k].contains(&held[k]))
             .flat_map(move |k| {

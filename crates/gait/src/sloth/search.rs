@@ -363,7 +363,7 @@ impl Sloth {
             next.limbs[lj].grip = g;
             next.limbs[lj].target = g.point;
         }
-        let grips = next.limbs.map(|l| l.grip.point);
+        let grips = next.limb_map(|l| l.grip.point);
         let offset = body_offset(env, next.trunk_weights(env));
         (next.body_pos, next.body_rot) = next.body_for_targets(env, &grips, offset, BodySide::Body);
         for lj in 0..4 {

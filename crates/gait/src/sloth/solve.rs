@@ -281,7 +281,7 @@ impl Sloth {
         let (pa, pb) = (a.solve_prepare(env), b.solve_prepare(env));
         let (sa, sb) = match (pa.all_settled(), pb.all_settled()) {
             (false, false) => {
-                let mut poses = lanes8(a.limbs.map(|l| l.pose), b.limbs.map(|l| l.pose));
+                let mut poses = lanes8(a.limb_map(|l| l.pose), b.limb_map(|l| l.pose));
                 let r = slothsim_rig::solve8_prepared_tolerances(
                     &env.rig.chains4,
                     lanes8(pa.roots, pb.roots),
@@ -299,7 +299,7 @@ impl Sloth {
         };
         let ia = a.solve_finish_limbs(env, params, &pa, sa);
         let ib = b.solve_finish_limbs(env, params, &pb, sb);
-        let poses = lanes8(a.limbs.map(|l| l.pose), b.limbs.map(|l| l.pose));
+        let poses = lanes8(a.limb_map(|l| l.pose), b.limb_map(|l| l.pose));
         let fk = env
             .rig
             .chains4
@@ -495,7 +495,7 @@ impl Sloth {
         prep: &SolvePrep,
         params: &CcdParams,
     ) -> ([ChainPose; 4], [CcdResult; 4]) {
-        let mut poses = self.limbs.map(|l| l.pose);
+        let mut poses = self.limb_map(|l| l.pose);
         let results = slothsim_rig::solve4_prepared(
             &env.rig.chains4,
             prep.roots,
@@ -516,7 +516,7 @@ impl Sloth {
         solved: Option<([ChainPose; 4], [CcdResult; 4])>,
     ) -> u32 {
         let iterations = self.solve_finish_limbs(env, params, prep, solved);
-        let poses = self.limbs.map(|l| l.pose);
+        let poses = self.limb_map(|l| l.pose);
         self.set_joints(env.rig.chains4.fk_joints(&prep.roots, &poses));
         iterations
     }

@@ -511,7 +511,7 @@ impl Sloth {
             .iter()
             .all(|l| l.phase == LimbPhase::Planted && l.grip.support != tr.to)
         {
-            self.transfer = transfer_not_taken(tr, self.limbs.map(|l| l.grip.support));
+            self.transfer = transfer_not_taken(tr, self.limb_map(|l| l.grip.support));
             return;
         }
         if !self

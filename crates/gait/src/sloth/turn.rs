@@ -176,7 +176,7 @@ impl Sloth {
     pub(super) fn start_turn(&mut self, tail_first: bool) {
         // A transfer only set up (see `may_turn_around`) is given up.
         self.transfer = None;
-        let t = self.limbs.map(|l| l.target);
+        let t = self.limb_map(|l| l.target);
         // The frame the body has now (formula 6, below the branch).
         let fwd0 = self.formula6_fwd(&t);
         let up = (Vec3::Y - fwd0 * fwd0.dot(Vec3::Y)).normalize_or(self.body_rot * Vec3::Y);
@@ -384,7 +384,7 @@ impl Sloth {
             (to + 1.5 * TURN_STEP).min(PI)
         };
         let s = env.scene().support(tr.support);
-        let t = self.limbs.map(|l| l.target);
+        let t = self.limb_map(|l| l.target);
         let offset = body_offset(env, self.trunk_weights(env));
         let mean = (t[0] + t[1] + t[2] + t[3]) * 0.25;
         // The limb's root at the step's end heading and at `ahead`.
@@ -497,8 +497,8 @@ impl Sloth {
     /// each limb at its side, [`grip_out`], and a limb crossed under the body
     /// to the far side of a thick branch finds no step back to it).
     fn hands_over(&self, tr: &Turn, li: usize, grip: Vec3, normal: Vec3) -> bool {
-        let mut t = self.limbs.map(|l| l.grip.point);
-        let mut n = self.limbs.map(|l| l.grip.normal);
+        let mut t = self.limb_map(|l| l.grip.point);
+        let mut n = self.limb_map(|l| l.grip.normal);
         t[li] = grip;
         n[li] = normal;
         let back = tr.fwd(PI);
@@ -519,7 +519,7 @@ impl Sloth {
     /// at the heading of its next turning step (the others holding theirs).
     fn turn_holds_ahead(&self, env: &LocoView<'_>, tr: &Turn, step: &TurnStep) -> bool {
         let ahead = (step.to + 3.0 * TURN_STEP).min(PI);
-        let mut t = self.limbs.map(|l| l.grip.point);
+        let mut t = self.limb_map(|l| l.grip.point);
         t[step.limb] = step.grip;
         let future = Turn {
             angle: ahead,
