@@ -743,10 +743,20 @@ impl Sloth {
                 offset,
             }
         };
-        let stances: [StanceCheck; STANCE_CHECKS] =
-            std::array::from_fn(|k| stance(SWING_CHECKS.get(k).copied()).with_roots(env));
-        // The stances' reach bands and bodies before the arc's sixteen bodies.
-        self.stances_clear(env, &stances)
+        // The stances' reach bands and bodies before the arc's sixteen bodies;
+        // each reach band tested as its stance is placed, before the next is
+        // placed (as `steps_reachable`: every check here is pure, the order
+        // only decides how early a step is rejected).
+        let mut placed = [None; STANCE_CHECKS];
+        for (k, slot) in placed.iter_mut().enumerate() {
+            let st = stance(SWING_CHECKS.get(k).copied()).with_roots(env);
+            if !in_band(env, &st) {
+                return false;
+            }
+            *slot = Some(st);
+        }
+        let stances = placed.map(|st| st.expect("every stance placed"));
+        self.bodies_clear(env, &stances)
             && !self.arc_body_penetrates(env, &stance)
             && self.stances_hold(env, &stances)
     }
