@@ -125,6 +125,19 @@ pub(super) struct TurnStep {
     pub(super) handover: bool,
 }
 
+impl TurnStep {
+    /// Its fields' bits (debug builds compare steps found two ways).
+    fn bits(self) -> (usize, [u32; 3], [u32; 3], u32, bool) {
+        (
+            self.limb,
+            self.grip.to_array().map(f32::to_bits),
+            self.normal.to_array().map(f32::to_bits),
+            self.to.to_bits(),
+            self.handover,
+        )
+    }
+}
+
 impl Turn {
     /// The heading at angle `a`.
     fn fwd(&self, a: f32) -> Vec3 {
@@ -304,14 +317,37 @@ impl Sloth {
         l.phase = LimbPhase::Planted;
         let remaining = PI - tr.angle;
         let incs = [TURN_STEP, TURN_STEP * 0.5, 0.0].map(|d| d.min(remaining));
-        let found = [true, false].into_iter().find_map(|lookahead| {
-            incs.iter().enumerate().find_map(|(k, &inc)| {
+        // With the lookahead first; else the first step of the scan without
+        // it. That scan would judge the same grips in the same order, each by
+        // the same pure checks: its answer for each increment is the first
+        // grip the first scan found passing every check but the lookahead
+        // (`without`), so it is taken from there instead of judged again.
+        let mut without = [None; 3];
+        let found = incs
+            .iter()
+            .enumerate()
+            .find_map(|(k, &inc)| {
                 if k > 0 && inc >= incs[k - 1] {
                     return None;
                 }
-                self.turn_step_for(env, &tr, li, inc, lookahead)
+                self.turn_step_for(env, &tr, li, inc, true, &mut without[k])
             })
-        });
+            .or_else(|| without.into_iter().flatten().next());
+        // Debug builds: the same step as both scans made in full.
+        debug_assert!(
+            {
+                let full = [true, false].into_iter().find_map(|lookahead| {
+                    incs.iter().enumerate().find_map(|(k, &inc)| {
+                        if k > 0 && inc >= incs[k - 1] {
+                            return None;
+                        }
+                        self.turn_step_for(env, &tr, li, inc, lookahead, &mut None)
+                    })
+                });
+                full.map(TurnStep::bits) == found.map(TurnStep::bits)
+            },
+            "a turn step taken from the first scan differs from the second scan's"
+        );
         let Some(step) = found else {
             self.turn_idle(env);
             return false;
@@ -373,6 +409,7 @@ impl Sloth {
         li: usize,
         inc: f32,
         lookahead: bool,
+        without: &mut Option<TurnStep>,
     ) -> Option<TurnStep> {
         let to = tr.angle + inc;
         let done = to >= PI - 1e-4;
@@ -480,6 +517,9 @@ impl Sloth {
                         return None;
                     }
                     if lookahead && !done && !self.turn_holds_ahead(env, tr, &step) {
+                        // Passes all but the lookahead: the scan without it
+                        // takes the first such grip (see `turn_search`).
+                        without.get_or_insert(step);
                         return None;
                     }
                     Some(step)
