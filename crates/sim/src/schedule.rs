@@ -26,7 +26,7 @@ use slothsim_gait::{HashedPoint, Job, Jobs, Serial, Sloth};
 
 use crate::world::{
     BodyAverageMemo, CcdMemo, CrowdNeighbours, CrowdPoints, GripLoad, GripLoadEvery, Locomotion,
-    SimClock, SlothId, SlothState, Traces, crowd_points,
+    SimClock, SlothId, SlothState, Traces,
 };
 
 /// The stages of one tick, in order. The first five and the parallel part
@@ -217,7 +217,7 @@ fn sloth_pass(
                 s.0.transitions(&searching, dt, &mut tr.0);
                 // The neighbour grid's points, hashed here in parallel.
                 if let Some(g) = grid {
-                    pts.0 = crowd_points(rig, &s.0).map(|p| g.hashed(p));
+                    pts.update(rig, &s.0, g);
                 }
             }
             laps.lap(5);

@@ -59,9 +59,41 @@ impl AsMut<SolveMemo> for CcdMemo {
 
 /// The points a sloth occupies for the others ([`crowd_points`]) with their
 /// grid-cell hashes, written by the Transitions stage in parallel for the
-/// neighbour grid's serial rebuild.
+/// neighbour grid's serial rebuild; and the bits of the body rotation they
+/// were made from (`None`: not made yet).
 #[derive(Component, Clone, Copy, Debug, Default)]
-pub struct CrowdPoints(pub [HashedPoint; 7]);
+pub struct CrowdPoints(pub [HashedPoint; 7], pub Option<[u32; 4]>);
+
+impl CrowdPoints {
+    /// Makes `s`'s points hashed for `g`, unless these are they already: the
+    /// points are a function of the body (position, rotation) and the four
+    /// grips alone, so where those hold the bits the points were made from
+    /// (the body position and the grips are points 0 and 3–6 themselves),
+    /// making them again would write the same bits (a sloth at rest: about
+    /// half the sloth-frames of a crowd). `g` must hash as the grid the
+    /// points were made for did (one grid, one cell size, a run).
+    #[inline]
+    pub fn update(&mut self, rig: &slothsim_gait::RigData, s: &Sloth, g: &CrowdGrid) {
+        let bits = |v: glam::Vec3| v.to_array().map(f32::to_bits);
+        let rot = s.body_rot.to_array().map(f32::to_bits);
+        let kept = self.1 == Some(rot)
+            && bits(self.0[0].point) == bits(s.body_pos)
+            && (0..4).all(|k| bits(self.0[3 + k].point) == bits(s.limbs[k].grip.point));
+        if kept {
+            debug_assert!(
+                crowd_points(rig, s)
+                    .map(|p| g.hashed(p))
+                    .iter()
+                    .zip(&self.0)
+                    .all(|(a, b)| a.hash == b.hash && bits(a.point) == bits(b.point)),
+                "kept crowd points differ from the sloth's"
+            );
+            return;
+        }
+        self.0 = crowd_points(rig, s).map(|p| g.hashed(p));
+        self.1 = Some(rot);
+    }
+}
 
 /// A sloth's trace requests and results (filled by the Trace stage).
 #[derive(Component, Clone, Debug, Default)]
