@@ -29,6 +29,7 @@ mod candidate;
 mod checks;
 mod clock;
 mod collide;
+mod livelock;
 mod observe;
 mod replan;
 mod route;
@@ -347,6 +348,10 @@ pub struct Sloth {
     /// while the search was failing (see [`Sloth::note_stuck_stance`]).
     #[serde(default)]
     pub stuck_stances: transfer::StanceRing,
+    /// Goal mode: the stances taken since the sloth last came nearer its
+    /// goal (see `livelock.rs`). Checkpointed (format 26).
+    #[serde(default)]
+    pub near_stances: livelock::NearRing,
 }
 
 /// Serde for [`ChainPose`] (four quaternions, bit-exact through serde's f32).

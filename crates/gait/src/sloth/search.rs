@@ -158,6 +158,11 @@ impl Sloth {
                     },
                 )
             });
+            // Goal mode, outside transfers: not a stance circled over
+            // twice already (see `livelock.rs`).
+            if self.near_refused(li, grip.point, pair_grip) {
+                continue;
+            }
             // Stuck (a search gave up since the last step): any step that
             // passes its checks changes the stance, and may unlock it.
             if self.stuck_cause.is_none() && !self.leaves_a_step(env, li, grip, pair_grip) {
@@ -199,6 +204,7 @@ impl Sloth {
             self.note_step(env);
             self.note_transfer_stance(env, li);
             self.note_stuck_stance(env, li, failing);
+            self.note_near_stance(li);
         }
         batch.len = 0;
         self.traces_queued = false;

@@ -1,0 +1,193 @@
+//! Livelock by nearby stances, goal mode (issue 24): a step may not take a
+//! stance the sloth has already taken twice since it last came nearer its
+//! goal; the limb takes its next candidate instead, or none.
+//!
+//! The exact watches (`Sloth::note_transfer_stance`,
+//! `Sloth::note_stuck_stance`) key a stance on a 0.1 mm grid, and the
+//! stuck-stance watch starts again at every step made with the search not
+//! failing. After a transfer onto a branch, trunk_branch at 111° and 135°
+//! (0.2 m) circled for the rest of the run: RF and LH stepping out and
+//! back over grips a few millimetres apart (111°), or LH alone round four
+//! grips while the other three failed (135°), one limb's step always
+//! found, so neither watch kept a record and no re-plan came. Giving up
+//! there (a back-off) would come late and be undone by the walk back, so
+//! the plan changes at the step itself: the greedy farthest-first search
+//! goes on to a grip it has not circled over.
+//!
+//! Refused outside transfers only: inside one, the transfer's own watch gives up
+//! on the third exact visit, and its back-off unlocks transfers that
+//! refusing the visit would leave circling (branch_trunk at 98°, 125° and
+//! 126°, 0.2 m, were lost that way).
+
+use glam::Vec3;
+use serde::{Deserialize, Serialize};
+
+use super::{Grip, Sloth};
+
+/// Stances the record keeps (a circle of two limbs in turn is about a
+/// dozen steps: see `transfer::STANCES_KEPT`).
+pub const NEAR_KEPT: usize = 16;
+
+/// Two stances are the same when every grip lies within this of the
+/// other's (metres; step candidates lie a back-off, 1 cm, apart).
+pub const NEAR_TOLERANCE_M: f32 = 0.01;
+
+/// The record starts again once the grips' centroid comes this much
+/// nearer the goal than it has been since it started (metres; the shortest
+/// step, `min_step_m`, is 3 cm, and a circling stance's centroid wanders
+/// by about 2 cm).
+pub const NEAR_PROGRESS_M: f32 = 0.05;
+
+/// A stance taken this many times is not taken again.
+const NEAR_TAKEN_MAX: u8 = 2;
+
+/// One recorded stance: the limb whose step took it (its index) and the
+/// four grips.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct NearStance {
+    pub limb: u8,
+    pub grips: [[f32; 3]; 4],
+    /// Times it was taken (1 when recorded).
+    pub taken: u8,
+}
+
+/// The stances taken since the sloth last came nearer its goal (see the
+/// module docs).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct NearRing {
+    pub stances: [NearStance; NEAR_KEPT],
+    /// Stances recorded (the next slot is this modulo [`NEAR_KEPT`]; 0:
+    /// the record is empty).
+    pub count: u32,
+    /// The grips' centroid's least distance to the goal since the record
+    /// started (metres).
+    pub best: f32,
+}
+
+impl NearRing {
+    /// The recorded stance of limb `li`'s step within [`NEAR_TOLERANCE_M`]
+    /// of `grips`, if any.
+    fn find(&self, li: usize, grips: &[Vec3; 4]) -> Option<usize> {
+        let kept = (self.count as usize).min(NEAR_KEPT);
+        (0..kept).find(|&k| {
+            let s = &self.stances[k];
+            s.limb == li as u8
+                && s.grips
+                    .iter()
+                    .zip(grips)
+                    .all(|(a, b)| Vec3::from(*a).distance(*b) <= NEAR_TOLERANCE_M)
+        })
+    }
+}
+
+impl Sloth {
+    /// Whether the record is kept: goal mode, no back-off or turn under way
+    /// (each steps away on purpose). Steps during a transfer are recorded
+    /// too (branch_trunk at 144°, 0.08 m, begins a transfer and drops it
+    /// again and again while it circles on the branch).
+    fn near_recorded(&self) -> bool {
+        self.goal.is_some() && !self.wander && self.backoff.is_none() && self.turn.is_none()
+    }
+
+    /// After limb `li` took a step: records the stance (see the module
+    /// docs); clears the record where it does not apply, or where the
+    /// grips came [`NEAR_PROGRESS_M`] nearer the goal.
+    pub(super) fn note_near_stance(&mut self, li: usize) {
+        let Some((_, goal)) = self.goal else { return };
+        if !self.near_recorded() {
+            self.near_stances.count = 0;
+            return;
+        }
+        let grips = self.limbs.map(|l| l.grip.point);
+        let d = (grips.iter().copied().sum::<Vec3>() * 0.25).distance(goal);
+        let r = &mut self.near_stances;
+        if r.count == 0 || d < r.best - NEAR_PROGRESS_M {
+            r.count = 0;
+            r.best = d;
+        }
+        match r.find(li, &grips) {
+            Some(k) => r.stances[k].taken = r.stances[k].taken.saturating_add(1),
+            None => {
+                r.stances[r.count as usize % NEAR_KEPT] = NearStance {
+                    limb: li as u8,
+                    grips: grips.map(|g| g.to_array()),
+                    taken: 1,
+                };
+                r.count = r.count.wrapping_add(1);
+            }
+        }
+    }
+
+    /// Whether limb `li`'s step to `point` (with the hind pair's partner's
+    /// step `pair`) would take a stance taken [`NEAR_TAKEN_MAX`] times
+    /// since the sloth last came nearer its goal: the search passes it by.
+    pub(super) fn near_refused(&self, li: usize, point: Vec3, pair: Option<(usize, Grip)>) -> bool {
+        if self.near_stances.count == 0 || self.transfer.is_some() || !self.near_recorded() {
+            return false;
+        }
+        let mut grips = self.limbs.map(|l| l.grip.point);
+        grips[li] = point;
+        if let Some((pi, g)) = pair {
+            grips[pi] = g.point;
+        }
+        self.near_stances
+            .find(li, &grips)
+            .is_some_and(|k| self.near_stances.stances[k].taken >= NEAR_TAKEN_MAX)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use slothsim_scene::PresetKind;
+
+    use super::super::test_util::preset_sloth;
+    use super::*;
+
+    /// The branch_trunk preset's sloth with its grips moved by `shift`.
+    fn shifted(s: &Sloth, shift: [Vec3; 4]) -> Sloth {
+        let mut t = *s;
+        for (l, d) in t.limbs.iter_mut().zip(shift) {
+            l.grip.point += d;
+        }
+        t
+    }
+
+    #[test]
+    fn a_stance_taken_twice_is_refused_within_the_tolerance() {
+        let (_env, s) = preset_sloth(PresetKind::BranchTrunk);
+        let (_, goal) = s.goal.unwrap();
+        let mut s = s;
+        // Three stances of a circle: LH (index 2) out, back, out again.
+        let out = Vec3::new(0.03, 0.0, 0.0);
+        let lh = |d: Vec3| [Vec3::ZERO, Vec3::ZERO, d, Vec3::ZERO];
+        let base = s;
+        for d in [out, Vec3::ZERO, out] {
+            s.limbs = shifted(&base, lh(d)).limbs;
+            s.note_near_stance(2);
+        }
+        let there = base.limbs[2].grip.point + out;
+        // Taken twice: refused, also 5 mm off; 2 cm off it is another stance.
+        assert!(s.near_refused(2, there, None));
+        assert!(s.near_refused(2, there + Vec3::new(0.0, 0.005, 0.0), None));
+        assert!(!s.near_refused(2, there + Vec3::new(0.0, 0.02, 0.0), None));
+        // Taken once (LH back home) is not refused; another limb's step to
+        // the same stance is another stance.
+        assert!(!s.near_refused(2, base.limbs[2].grip.point, None));
+        // In wander mode or without a goal: never.
+        let mut w = s;
+        w.wander = true;
+        assert!(!w.near_refused(2, there, None));
+        let mut g = s;
+        g.goal = None;
+        assert!(!g.near_refused(2, there, None));
+        // Coming nearer the goal by more than NEAR_PROGRESS_M starts the
+        // record again.
+        let centroid = s.limbs.iter().map(|l| l.grip.point).sum::<Vec3>() * 0.25;
+        let toward = (goal - centroid).normalize() * (NEAR_PROGRESS_M + 0.02);
+        let mut p = shifted(&s, [toward; 4]);
+        p.note_near_stance(1);
+        let there2 = there + toward;
+        assert_eq!(p.near_stances.count, 1);
+        assert!(!p.near_refused(2, there2, None));
+    }
+}
