@@ -98,7 +98,7 @@ impl Sloth {
             self.near_stances.count = 0;
             return;
         }
-        let grips = self.limbs.map(|l| l.grip.point);
+        let grips = self.limb_map(|l| l.grip.point);
         let d = (grips.iter().copied().sum::<Vec3>() * 0.25).distance(goal);
         let r = &mut self.near_stances;
         if r.count == 0 || d < r.best - NEAR_PROGRESS_M {
@@ -122,10 +122,11 @@ impl Sloth {
     /// step `pair`) would take a stance taken [`NEAR_TAKEN_MAX`] times
     /// since the sloth last came nearer its goal: the search passes it by.
     pub(super) fn near_refused(&self, li: usize, point: Vec3, pair: Option<(usize, Grip)>) -> bool {
-        if self.near_stances.count == 0 || self.transfer.is_some() || !self.near_recorded() {
+        // Goal mode first: a wanderer's search does not touch the record's lines.
+        if !self.near_recorded() || self.transfer.is_some() || self.near_stances.count == 0 {
             return false;
         }
-        let mut grips = self.limbs.map(|l| l.grip.point);
+        let mut grips = self.limb_map(|l| l.grip.point);
         grips[li] = point;
         if let Some((pi, g)) = pair {
             grips[pi] = g.point;
