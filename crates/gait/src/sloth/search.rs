@@ -661,3 +661,92 @@ impl Sloth {
         })
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::CrowdGrid;
+    use crate::sloth::test_util::walk_presets;
+    use glam::Vec3;
+
+    /// The grips of limb `li`'s candidates on its own support and on every
+    /// neighbour it may take that pass every check with no other sloth
+    /// about (every centimetre).
+    fn free_grips(s: &Sloth, alone: &LocoView<'_>, li: usize) -> Vec<Vec3> {
+        let g = s.limbs[li].grip;
+        let mut searches = vec![s.own_search(alone, li)];
+        for &sid in alone.adjacency.neighbours(g.support) {
+            if s.may_follow(alone, li, sid)
+                && let Some(sr) = s.neighbour_search(alone, li, sid, 0)
+            {
+                searches.push(sr);
+            }
+        }
+        let mut out = Vec::new();
+        for sr in &searches {
+            let len = alone.scene().support(sr.support).length();
+            let mut u = sr.next_u;
+            while (u - sr.last_u) * sr.sdir >= -1e-6 {
+                if (alone.cfg.end_margin_m..=len - alone.cfg.end_margin_m).contains(&u)
+                    && let Some((_, c)) = s.candidate(alone, &CandidateAt::probe(li, sr, u), &mut 0)
+                {
+                    out.push(c.point);
+                }
+                u -= sr.sdir * 0.01;
+            }
+        }
+        out
+    }
+
+    /// Two wanderers holding each other's only steps (traced in the crowd:
+    /// pairs at a branch ↔ trunk junction) stood there for good: neither
+    /// had a step while the other stood in it. On every preset, at stances
+    /// every second of the walk (made a wanderer), another sloth's points
+    /// are put on every grip the sloth could step to alone, so that no limb
+    /// has a step (the lookahead's scan, `has_step`). Once its search has
+    /// given up with that sloth in the way (`crowded`, `boxed_in`) it has a
+    /// step again if the other's id is higher, and still none if it is
+    /// lower, or if it gave up for another reason: in any group of sloths
+    /// stuck behind each other exactly the lowest id goes first.
+    #[test]
+    fn a_stuck_wanderer_has_the_right_of_way_over_higher_ids() {
+        let mut cases = 0;
+        walk_presets(60, |kind, env, frame, sloth| {
+            let mut s = sloth;
+            s.wander = true;
+            s.id = 100;
+            let alone = LocoView {
+                crowd: None,
+                ..*env
+            };
+            let points: Vec<Vec3> = (0..4).flat_map(|li| free_grips(&s, &alone, li)).collect();
+            if points.is_empty() {
+                return;
+            }
+            cases += 1;
+            let any_step = |s: &Sloth, other: u32| {
+                let mut grid = CrowdGrid::new(0.3);
+                grid.rebuild(points.iter().map(|&p| (other, p)));
+                let view = LocoView {
+                    crowd: Some(&grid),
+                    ..*env
+                };
+                (0..4).any(|li| s.has_step(&view, li))
+            };
+            let at = format!("{} frame {frame}", kind.name());
+            for cause in [None, Some(StuckCause::Tip), Some(StuckCause::NoGrip)] {
+                s.stuck_cause = cause;
+                assert!(!any_step(&s, 200), "{at}: a step with {cause:?}");
+            }
+            for cause in [StuckCause::Crowded, StuckCause::BoxedIn] {
+                s.stuck_cause = Some(cause);
+                assert!(any_step(&s, 200), "{at}: no right of way ({cause:?})");
+                assert!(
+                    !any_step(&s, 50),
+                    "{at}: right of way over a lower id ({cause:?})"
+                );
+            }
+        });
+        assert!(cases >= 40, "only {cases} stances with a step");
+    }
+}
