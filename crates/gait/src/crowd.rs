@@ -293,14 +293,6 @@ impl CrowdGrid {
 
     /// Whether a point of a sloth other than `me` lies within the clearance of `p`.
     pub fn blocked(&self, me: u32, p: Vec3) -> bool {
-        self.blocked_below(me, u32::MAX, p)
-    }
-
-    /// Whether a point of a sloth other than `me` with an id below `below`
-    /// lies within the clearance of `p` (`below` = `u32::MAX`: every other
-    /// sloth; a stuck wanderer's right of way, `Sloth::right_of_way`, passes
-    /// its own id: it keeps clear only of sloths with a lower id).
-    pub fn blocked_below(&self, me: u32, below: u32, p: Vec3) -> bool {
         if self.entries.is_empty() || !p.is_finite() {
             return false;
         }
@@ -314,7 +306,7 @@ impl CrowdGrid {
                     let s = self.slot(c + IVec3::new(dx, dy, dz));
                     let (s, e) = (self.starts[s] as usize, self.starts[s + 1] as usize);
                     for &(owner, q) in &self.entries[s..e] {
-                        if owner != me && owner < below && q.distance_squared(p) < r2 {
+                        if owner != me && q.distance_squared(p) < r2 {
                             return true;
                         }
                     }

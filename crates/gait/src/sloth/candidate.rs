@@ -628,36 +628,10 @@ impl Sloth {
 
     /// Stage 5: the grip (and the hind pair's partner's) within another
     /// sloth's clearance (their bodies and grips of the previous tick).
-    /// A wanderer with the right of way ([`Sloth::right_of_way`]) keeps clear
-    /// only of sloths with a lower id.
     fn crowded(&self, env: &LocoView<'_>, p: &Placement) -> bool {
-        let below = if self.right_of_way() {
-            self.id
-        } else {
-            u32::MAX
-        };
         env.crowd.is_some_and(|g| {
-            g.blocked_below(self.id, below, p.grip)
-                || p.pair
-                    .is_some_and(|(_, p2, _)| g.blocked_below(self.id, below, p2))
+            g.blocked(self.id, p.grip) || p.pair.is_some_and(|(_, p2, _)| g.blocked(self.id, p2))
         })
-    }
-
-    /// A wanderer whose search gave up with other sloths in the way (its
-    /// cause `crowded` or `boxed_in`: a step passes once they are ignored),
-    /// until its next step: it keeps clear only of sloths with a lower id
-    /// (a deterministic tie-break). Traced in the 5,000-sloth crowd, the
-    /// sloths stuck behind others are pairs holding each other's only steps
-    /// at a branch ↔ trunk junction or on a trunk (one on the trunk, the other
-    /// half across a transfer or beside it, turning back and forth), neither
-    /// with a way round; waiting frees none of them. In any group of sloths
-    /// stuck behind each other the one with the lowest id now has its step.
-    pub(super) fn right_of_way(&self) -> bool {
-        self.wander
-            && matches!(
-                self.stuck_cause,
-                Some(super::StuckCause::Crowded | super::StuckCause::BoxedIn)
-            )
     }
 
     /// Stage 6: the reach checks ([`Sloth::step_reachable`]; the hind pair's
