@@ -524,9 +524,17 @@ mod tests {
         let cases: [[Vec3; 3]; 6] = [
             [Vec3::splat(big), Vec3::splat(big), Vec3::ONE],
             [Vec3::splat(-big), Vec3::splat(-big), Vec3::ZERO],
-            [Vec3::new(big, -big, big), Vec3::splat(big), Vec3::splat(big)],
+            [
+                Vec3::new(big, -big, big),
+                Vec3::splat(big),
+                Vec3::splat(big),
+            ],
             [Vec3::new(f32::INFINITY, 0.0, 0.0), Vec3::ONE, Vec3::ZERO],
-            [Vec3::new(0.0, f32::NEG_INFINITY, f32::INFINITY), Vec3::ONE, Vec3::ONE],
+            [
+                Vec3::new(0.0, f32::NEG_INFINITY, f32::INFINITY),
+                Vec3::ONE,
+                Vec3::ONE,
+            ],
             [Vec3::ONE, Vec3::new(0.0, 0.0, f32::NAN), Vec3::splat(2.0)],
         ];
         let grid = CrowdGrid::new(0.3);

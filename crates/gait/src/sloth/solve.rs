@@ -417,7 +417,9 @@ impl Sloth {
             let (m_lo, m_hi) = memos.split_at_mut(i);
             let (a, b) = (s_lo[j].as_mut(), s_hi[0].as_mut());
             let [na, nb] = Sloth::solve_limbs_pair(a, b, env);
-            m_lo[j].as_mut().keep(a, armed_j.then_some(&owns[slot_j]), na);
+            m_lo[j]
+                .as_mut()
+                .keep(a, armed_j.then_some(&owns[slot_j]), na);
             m_hi[0].as_mut().keep(b, armed.then_some(&owns[slot]), nb);
             sweeps += u64::from(na) + u64::from(nb);
         }
