@@ -109,20 +109,23 @@ impl SolveMemo {
         hit.then_some(self.iterations)
     }
 
-    /// Before a solve of `sloth`: its state, where no limb swings; returns
-    /// the fields only the solve writes, as they are before it (for
-    /// [`SolveMemo::keep`]).
-    fn arm(&mut self, sloth: &Sloth) -> Option<SolveOwn> {
+    /// Before a solve of `sloth`: its state, where no limb swings; writes
+    /// the fields only the solve writes, as they are before it, into `own`
+    /// (for [`SolveMemo::keep`]; in place: a returned `SolveOwn`, 480 bytes,
+    /// was copied twice on its way into a batch's pending pair) and returns
+    /// whether it did.
+    fn arm(&mut self, sloth: &Sloth, own: &mut SolveOwn) -> bool {
         self.fixed = false;
         self.armed = !sloth.any_swinging();
-        self.armed.then(|| {
+        if self.armed {
             let mut k = KeyBits::<SOLVE_KEY_LEN>::new();
             sloth.solve_key_into(&mut k);
             self.key = k.done();
-            let mut o = KeyBits::<SOLVE_OWN_LEN>::new();
+            let mut o = KeyInto { k: own, at: 0 };
             sloth.solve_own_into(&mut o);
-            o.done()
-        })
+            debug_assert_eq!(o.at, SOLVE_OWN_LEN);
+        }
+        self.armed
     }
 
     /// After that solve (`own`: what [`SolveMemo::arm`] returned): kept where
@@ -250,6 +253,23 @@ impl<const N: usize> KeySink for KeyBits<N> {
     }
 }
 
+/// A memo's words written in place into `k` (see [`SolveMemo::arm`]).
+struct KeyInto<'a, const N: usize> {
+    k: &'a mut [u32; N],
+    at: usize,
+}
+
+impl<const N: usize> KeySink for KeyInto<'_, N> {
+    fn u32s<const M: usize>(&mut self, v: [u32; M]) {
+        self.k[self.at..self.at + M].copy_from_slice(&v);
+        self.at += M;
+    }
+
+    fn f32s<const M: usize>(&mut self, v: [f32; M]) {
+        self.u32s(v.map(f32::to_bits));
+    }
+}
+
 /// Eight SIMD lanes' values: `a`'s in lanes 0..4, `b`'s in 4..8.
 pub(super) fn lanes8<T: Copy>(a: [T; 4], b: [T; 4]) -> [T; 8] {
     std::array::from_fn(|i| if i < 4 { a[i] } else { b[i - 4] })
@@ -344,8 +364,9 @@ impl Sloth {
         match memo.hit(self) {
             Some(iterations) => iterations,
             None => {
-                let own = memo.arm(self);
-                self.solve_limbs_kept(env, memo, own.as_ref())
+                let mut own = [0; SOLVE_OWN_LEN];
+                let armed = memo.arm(self, &mut own);
+                self.solve_limbs_kept(env, memo, armed.then_some(&own))
             }
         }
     }
@@ -374,32 +395,40 @@ impl Sloth {
     ) -> u64 {
         assert_eq!(sloths.len(), memos.len(), "one memo per sloth");
         let mut sweeps = 0u64;
-        // A sloth to solve, waiting for a partner (its memo armed), and its
-        // solve's own fields before the solve.
-        let mut pending: Option<(usize, Option<SolveOwn>)> = None;
+        // A sloth to solve, waiting for a partner (its memo armed), whether
+        // its memo was armed and the slot of `owns` holding its solve's own
+        // fields before the solve (written there in place, never moved).
+        let mut owns = [[0; SOLVE_OWN_LEN]; 2];
+        let mut pending: Option<(usize, bool, usize)> = None;
         for i in 0..sloths.len() {
             let (sloth, memo) = (sloths[i].as_mut(), memos[i].as_mut());
             if let Some(n) = memo.hit(sloth) {
                 sweeps += u64::from(n);
                 continue;
             }
-            let own = memo.arm(sloth);
-            let Some((j, own_j)) = pending.take() else {
-                pending = Some((i, own));
+            // The slot the pending sloth does not use.
+            let slot = pending.map_or(0, |(_, _, s)| 1 - s);
+            let armed = memo.arm(sloth, &mut owns[slot]);
+            let Some((j, armed_j, slot_j)) = pending.take() else {
+                pending = Some((i, armed, slot));
                 continue;
             };
             let (s_lo, s_hi) = sloths.split_at_mut(i);
             let (m_lo, m_hi) = memos.split_at_mut(i);
             let (a, b) = (s_lo[j].as_mut(), s_hi[0].as_mut());
             let [na, nb] = Sloth::solve_limbs_pair(a, b, env);
-            m_lo[j].as_mut().keep(a, own_j.as_ref(), na);
-            m_hi[0].as_mut().keep(b, own.as_ref(), nb);
+            m_lo[j]
+                .as_mut()
+                .keep(a, armed_j.then_some(&owns[slot_j]), na);
+            m_hi[0].as_mut().keep(b, armed.then_some(&owns[slot]), nb);
             sweeps += u64::from(na) + u64::from(nb);
         }
-        if let Some((j, own)) = pending {
-            let n = sloths[j]
-                .as_mut()
-                .solve_limbs_kept(env, memos[j].as_mut(), own.as_ref());
+        if let Some((j, armed, slot)) = pending {
+            let n = sloths[j].as_mut().solve_limbs_kept(
+                env,
+                memos[j].as_mut(),
+                armed.then_some(&owns[slot]),
+            );
             sweeps += u64::from(n);
         }
         sweeps
