@@ -116,12 +116,20 @@ impl Sloth {
                     .iter()
                     .all(|&l| !self.leads(l) || self.limbs[l.index()].grip.support != t.to)
         };
+        // Goal mode, a head-first transfer onto a trunk with one fore limb
+        // across and its partner without a step onto the trunk (the stance
+        // locked half way): that fore limb is judged by steps as well, so
+        // with no step back to the branch it steps back along the trunk
+        // (issue 24: its branch candidates were all too far, and the
+        // back-off moved only its partner, back and forth on the branch).
+        let by_steps = || self.wander || self.lone_fore_locked(env, li);
         let lead_in_reach = || {
+            let by_steps = by_steps();
             Limb::ALL.iter().any(|&l| {
                 self.leads(l)
                     && self
                         .neighbour_search(env, li, self.limbs[l.index()].grip.support, 0)
-                        .is_some_and(|sr| !self.wander || self.range_has_step(env, li, &sr))
+                        .is_some_and(|sr| !by_steps || self.range_has_step(env, li, &sr))
             })
         };
         if self.transfer.is_some_and(|t| undoing(&t)) && lead_in_reach() {
@@ -138,6 +146,50 @@ impl Sloth {
             search.last_u = g.u - sdir * SIDE_STEP_AXIAL_SLACK;
         }
         search
+    }
+
+    /// Whether limb `li` is the one fore limb across a head-first transfer
+    /// onto a trunk (its partner still on another support).
+    fn lone_fore_across(&self, li: usize) -> bool {
+        let limb = Limb::ALL[li];
+        let Some(t) = self.transfer else {
+            return false;
+        };
+        let partner = if limb == Limb::LF { Limb::RF } else { Limb::LF };
+        limb.is_fore()
+            && t.to == t.trunk
+            && t.dir > 0.0
+            && self.limbs[li].grip.support == t.trunk
+            && self.limbs[partner.index()].grip.support != t.trunk
+    }
+
+    /// [`Self::lone_fore_across`], and its partner, travelling toward the
+    /// goal again, would have no step onto the trunk either: the stance the
+    /// back-off cannot undo from the branch side.
+    fn lone_fore_locked(&self, env: &LocoView<'_>, li: usize) -> bool {
+        if !self.lone_fore_across(li) {
+            return false;
+        }
+        let Some(t) = self.transfer else {
+            return false;
+        };
+        let partner = if Limb::ALL[li] == Limb::LF {
+            Limb::RF
+        } else {
+            Limb::LF
+        }
+        .index();
+        let mut probe = *self;
+        if probe.dir != t.dir {
+            probe.dir = t.dir;
+            for l in &mut probe.limbs {
+                l.grip.sdir = -l.grip.sdir;
+            }
+        }
+        probe.backoff = None;
+        !probe
+            .neighbour_search(env, partner, t.trunk, 0)
+            .is_some_and(|sr| probe.range_has_step(env, partner, &sr))
     }
 
     /// The candidate range of limb `li` on neighbour support `sid`, if its
