@@ -87,6 +87,18 @@ pub(super) fn search_ahead(env: &LocoView<'_>, g: Grip) -> Search {
     }
 }
 
+/// Goal mode: the lone fore limb across a locked transfer onto a trunk is
+/// judged by steps (`Sloth::own_search`) only from its `LONE_FORE_WAIT`-th
+/// locked step search to before its `LONE_FORE_END`-th, counted on the sloth
+/// across transfers ended and begun again. Before: its partner's moves
+/// unlock the stance within four searches in some cases (branch_trunk 0.2 m
+/// 137.5°), and a step back along the trunk taken first locked it again, to
+/// the time limit. After: a late step back along the trunk broke stances
+/// that main's moves unlock late (0.15 m 152°, 0.2 m 124.4°). Branch `bt13`,
+/// docs/scenarios.md.
+const LONE_FORE_WAIT: u8 = 5;
+const LONE_FORE_END: u8 = 11;
+
 impl Sloth {
     /// The search of limb `li` on the support it holds: from the search
     /// distance ahead of its grip back to the grip. Side-stepping around a
@@ -122,7 +134,13 @@ impl Sloth {
         // with no step back to the branch it steps back along the trunk
         // (issue 24: its branch candidates were all too far, and the
         // back-off moved only its partner, back and forth on the branch).
-        let by_steps = || self.wander || self.lone_fore_locked(env, li);
+        // Only within a bounded window of its locked searches (see
+        // `LONE_FORE_WAIT`).
+        let by_steps = || {
+            self.wander
+                || ((LONE_FORE_WAIT..LONE_FORE_END).contains(&self.lone_fore_searches)
+                    && self.lone_fore_locked(env, li))
+        };
         let lead_in_reach = || {
             let by_steps = by_steps();
             Limb::ALL.iter().any(|&l| {
@@ -166,7 +184,7 @@ impl Sloth {
     /// [`Self::lone_fore_across`], and its partner, travelling toward the
     /// goal again, would have no step onto the trunk either: the stance the
     /// back-off cannot undo from the branch side.
-    fn lone_fore_locked(&self, env: &LocoView<'_>, li: usize) -> bool {
+    pub(super) fn lone_fore_locked(&self, env: &LocoView<'_>, li: usize) -> bool {
         if !self.lone_fore_across(li) {
             return false;
         }
