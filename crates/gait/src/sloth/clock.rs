@@ -124,9 +124,14 @@ impl Sloth {
         }
         self.limbs[li].phase = LimbPhase::Searching;
         self.limbs[li].probe = probe;
-        self.limbs[li].search = self
-            .goal_branch_search(env, li)
-            .unwrap_or_else(|| self.own_search(env, li));
+        // Goal mode: a search of the lone fore limb across a locked
+        // transfer onto a trunk is counted (`Sloth::own_search`).
+        let goal_branch = self.goal_branch_search(env, li);
+        let by_own = goal_branch.is_none();
+        self.limbs[li].search = goal_branch.unwrap_or_else(|| self.own_search(env, li));
+        if by_own && !probe && !self.wander && self.lone_fore_locked(env, li) {
+            self.lone_fore_searches = self.lone_fore_searches.saturating_add(1);
+        }
         self.queue_candidates(env, li, batch);
     }
 

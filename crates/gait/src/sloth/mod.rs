@@ -330,6 +330,12 @@ pub struct Sloth {
     /// and re-planned: the hind limbs leave the trunk one at a time.
     #[serde(default)]
     pub hind_single: bool,
+    /// Goal mode: step searches the lone fore limb across a locked transfer
+    /// onto a trunk has started (see `Sloth::own_search`), kept across
+    /// transfers ended and begun again, cleared when a transfer is
+    /// completed. Checkpointed (format 27).
+    #[serde(default)]
+    pub lone_fore_searches: u8,
     /// Why its step search last found nothing anywhere (`None`: it never
     /// failed). Not part of the state hash: a diagnosis, not locomotion.
     #[serde(default)]

@@ -87,6 +87,18 @@ pub(super) fn search_ahead(env: &LocoView<'_>, g: Grip) -> Search {
     }
 }
 
+/// Goal mode: the lone fore limb across a locked transfer onto a trunk is
+/// judged by steps (`Sloth::own_search`) only from its `LONE_FORE_WAIT`-th
+/// locked step search to before its `LONE_FORE_END`-th, counted on the sloth
+/// across transfers ended and begun again. Before: its partner's moves
+/// unlock the stance within four searches in some cases (branch_trunk 0.2 m
+/// 137.5°), and a step back along the trunk taken first locked it again, to
+/// the time limit. After: a late step back along the trunk broke stances
+/// that main's moves unlock late (0.15 m 152°, 0.2 m 124.4°). Branch `bt13`,
+/// docs/scenarios.md.
+const LONE_FORE_WAIT: u8 = 5;
+const LONE_FORE_END: u8 = 11;
+
 impl Sloth {
     /// The search of limb `li` on the support it holds: from the search
     /// distance ahead of its grip back to the grip. Side-stepping around a
@@ -116,12 +128,26 @@ impl Sloth {
                     .iter()
                     .all(|&l| !self.leads(l) || self.limbs[l.index()].grip.support != t.to)
         };
+        // Goal mode, a head-first transfer onto a trunk with one fore limb
+        // across and its partner without a step onto the trunk (the stance
+        // locked half way): that fore limb is judged by steps as well, so
+        // with no step back to the branch it steps back along the trunk
+        // (issue 24: its branch candidates were all too far, and the
+        // back-off moved only its partner, back and forth on the branch).
+        // Only within a bounded window of its locked searches (see
+        // `LONE_FORE_WAIT`).
+        let by_steps = || {
+            self.wander
+                || ((LONE_FORE_WAIT..LONE_FORE_END).contains(&self.lone_fore_searches)
+                    && self.lone_fore_locked(env, li))
+        };
         let lead_in_reach = || {
+            let by_steps = by_steps();
             Limb::ALL.iter().any(|&l| {
                 self.leads(l)
                     && self
                         .neighbour_search(env, li, self.limbs[l.index()].grip.support, 0)
-                        .is_some_and(|sr| !self.wander || self.range_has_step(env, li, &sr))
+                        .is_some_and(|sr| !by_steps || self.range_has_step(env, li, &sr))
             })
         };
         if self.transfer.is_some_and(|t| undoing(&t)) && lead_in_reach() {
@@ -138,6 +164,50 @@ impl Sloth {
             search.last_u = g.u - sdir * SIDE_STEP_AXIAL_SLACK;
         }
         search
+    }
+
+    /// Whether limb `li` is the one fore limb across a head-first transfer
+    /// onto a trunk (its partner still on another support).
+    fn lone_fore_across(&self, li: usize) -> bool {
+        let limb = Limb::ALL[li];
+        let Some(t) = self.transfer else {
+            return false;
+        };
+        let partner = if limb == Limb::LF { Limb::RF } else { Limb::LF };
+        limb.is_fore()
+            && t.to == t.trunk
+            && t.dir > 0.0
+            && self.limbs[li].grip.support == t.trunk
+            && self.limbs[partner.index()].grip.support != t.trunk
+    }
+
+    /// [`Self::lone_fore_across`], and its partner, travelling toward the
+    /// goal again, would have no step onto the trunk either: the stance the
+    /// back-off cannot undo from the branch side.
+    pub(super) fn lone_fore_locked(&self, env: &LocoView<'_>, li: usize) -> bool {
+        if !self.lone_fore_across(li) {
+            return false;
+        }
+        let Some(t) = self.transfer else {
+            return false;
+        };
+        let partner = if Limb::ALL[li] == Limb::LF {
+            Limb::RF
+        } else {
+            Limb::LF
+        }
+        .index();
+        let mut probe = *self;
+        if probe.dir != t.dir {
+            probe.dir = t.dir;
+            for l in &mut probe.limbs {
+                l.grip.sdir = -l.grip.sdir;
+            }
+        }
+        probe.backoff = None;
+        !probe
+            .neighbour_search(env, partner, t.trunk, 0)
+            .is_some_and(|sr| probe.range_has_step(env, partner, &sr))
     }
 
     /// The candidate range of limb `li` on neighbour support `sid`, if its

@@ -122,6 +122,7 @@ impl Sloth {
             backoff: None,
             replans: 0,
             hind_single: false,
+            lone_fore_searches: 0,
             turn: None,
             stuck_cause: None,
             transfer: None,

@@ -523,6 +523,7 @@ impl Sloth {
         }
         self.transfer = None;
         self.hind_single = false;
+        self.lone_fore_searches = 0;
         let s = env.scene().support(tr.to);
         if s.kind != SupportKind::Trunk {
             self.hang_trunk = Some(tr.trunk);
