@@ -399,15 +399,9 @@ impl Sloth {
         // reach band is tested as it is placed: one in eight steps fails
         // there, half of those at the first arc point, before the others
         // are placed.
-        let mut stances = [None; STANCE_CHECKS];
-        for (k, slot) in stances.iter_mut().enumerate() {
-            let st = stance_at(SWING_CHECKS.get(k).copied()).with_roots(env);
-            if !in_band(env, &st) {
-                return false;
-            }
-            *slot = Some(st);
-        }
-        let stances = stances.map(|st| st.expect("every stance placed"));
+        let Some(stances) = stances_in_band(env, &stance_at) else {
+            return false;
+        };
         if !self.bodies_clear(env, &stances) {
             return false;
         }
@@ -747,15 +741,9 @@ impl Sloth {
         // each reach band tested as its stance is placed, before the next is
         // placed (as `steps_reachable`: every check here is pure, the order
         // only decides how early a step is rejected).
-        let mut placed = [None; STANCE_CHECKS];
-        for (k, slot) in placed.iter_mut().enumerate() {
-            let st = stance(SWING_CHECKS.get(k).copied()).with_roots(env);
-            if !in_band(env, &st) {
-                return false;
-            }
-            *slot = Some(st);
-        }
-        let stances = placed.map(|st| st.expect("every stance placed"));
+        let Some(stances) = stances_in_band(env, &stance) else {
+            return false;
+        };
         self.bodies_clear(env, &stances)
             && !self.arc_body_penetrates(env, &stance)
             && self.stances_hold(env, &stances)
@@ -934,6 +922,25 @@ fn in_band(env: &LocoView<'_>, st: &StanceCheck) -> bool {
         let d = root.distance(st.placed.grips[i]);
         !(d > max || d < min)
     })
+}
+
+/// A step's stances at each of [`SWING_CHECKS`] and at its end
+/// (`stance(None)`), each with its chain roots, placed in that order; `None`
+/// as soon as one fails its reach band ([`in_band`]), the later ones not
+/// placed.
+fn stances_in_band(
+    env: &LocoView<'_>,
+    stance: impl Fn(Option<f32>) -> PlacedStance,
+) -> Option<[StanceCheck; STANCE_CHECKS]> {
+    let mut placed = [None; STANCE_CHECKS];
+    for (k, slot) in placed.iter_mut().enumerate() {
+        let st = stance(SWING_CHECKS.get(k).copied()).with_roots(env);
+        if !in_band(env, &st) {
+            return None;
+        }
+        *slot = Some(st);
+    }
+    Some(placed.map(|st| st.expect("every stance placed")))
 }
 
 /// The swing duration of each limb of `sloth` already in the air, other
