@@ -399,7 +399,7 @@ impl Sloth {
         // reach band is tested as it is placed: one in eight steps fails
         // there, half of those at the first arc point, before the others
         // are placed.
-        let Some(stances) = stances_in_band(env, &stance_at) else {
+        let Some(stances) = stances_in_band(env, stance_at) else {
             return false;
         };
         if !self.bodies_clear(env, &stances) {
@@ -741,7 +741,7 @@ impl Sloth {
         // each reach band tested as its stance is placed, before the next is
         // placed (as `steps_reachable`: every check here is pure, the order
         // only decides how early a step is rejected).
-        let Some(stances) = stances_in_band(env, &stance) else {
+        let Some(stances) = stances_in_band(env, stance) else {
             return false;
         };
         self.bodies_clear(env, &stances)
