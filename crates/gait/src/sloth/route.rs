@@ -166,37 +166,28 @@ impl Sloth {
         search
     }
 
-    /// Whether limb `li` is the one fore limb across a head-first transfer
-    /// onto a trunk (its partner still on another support).
-    fn lone_fore_across(&self, li: usize) -> bool {
+    /// Where limb `li` is the one fore limb across a head-first transfer
+    /// onto a trunk (its partner still on another support): the transfer and
+    /// the partner's index.
+    fn lone_fore_across(&self, li: usize) -> Option<(super::Transfer, usize)> {
         let limb = Limb::ALL[li];
-        let Some(t) = self.transfer else {
-            return false;
-        };
-        let partner = if limb == Limb::LF { Limb::RF } else { Limb::LF };
-        limb.is_fore()
+        let t = self.transfer?;
+        let partner = if limb == Limb::LF { Limb::RF } else { Limb::LF }.index();
+        (limb.is_fore()
             && t.to == t.trunk
             && t.dir > 0.0
             && self.limbs[li].grip.support == t.trunk
-            && self.limbs[partner.index()].grip.support != t.trunk
+            && self.limbs[partner].grip.support != t.trunk)
+            .then_some((t, partner))
     }
 
     /// [`Self::lone_fore_across`], and its partner, travelling toward the
     /// goal again, would have no step onto the trunk either: the stance the
     /// back-off cannot undo from the branch side.
     pub(super) fn lone_fore_locked(&self, env: &LocoView<'_>, li: usize) -> bool {
-        if !self.lone_fore_across(li) {
-            return false;
-        }
-        let Some(t) = self.transfer else {
+        let Some((t, partner)) = self.lone_fore_across(li) else {
             return false;
         };
-        let partner = if Limb::ALL[li] == Limb::LF {
-            Limb::RF
-        } else {
-            Limb::LF
-        }
-        .index();
         let mut probe = *self;
         if probe.dir != t.dir {
             probe.dir = t.dir;
