@@ -530,16 +530,34 @@ impl Sloth {
         // its reach where a shorter one holds (branch_trunk at 139.5°, 0.2 m:
         // LH 0.21 m behind RH from 13 s, its level steps too near LF or
         // leaving RH 10–13 mm short of its grip, until the time ran out).
+        //
+        // Tail first down a branch to the goal's trunk (the hind limbs lead
+        // onto it; no transfer begun yet), a hind limb behind its partner by
+        // more than a minimum step may close up part way as well while the
+        // search is failing: the hind girdle then takes the trunk level. The
+        // transfer step of the limb behind had split it by 0.13 m, which grew
+        // to 0.20 m down the trunk, where the fore girdle trailed split the
+        // other way and no limb could land level with its partner (the level
+        // grips out of reach or too near the same side's fore grip, those
+        // behind barred here): branch_trunk at 74.5° and 75.5°, 0.2 m,
+        // stopped `no_grip` on the trunk 1.15 m from the goal.
         let cur_lead = (p.cur - opp).dot(p.travel);
-        let girdle_locked = !limb.is_fore()
+        let failing_hind = !limb.is_fore() && self.failed_searches > 0;
+        let girdle_locked = failing_hind
             && -cur_lead > cfg.max_girdle_lead * cfg.max_step_m - cfg.min_step_m
-            && self.failed_searches > 0
             && self.approach_trunk(env).is_some();
-        let min_lead = if cur_lead < -(cfg.max_step_m - cfg.min_step_m) || girdle_locked {
-            cur_lead + cfg.min_step_m
-        } else {
-            0.0
-        };
+        let tail_first_closing = failing_hind
+            && self.dir < 0.0
+            && self.transfer.is_none()
+            && -cur_lead > cfg.min_step_m
+            && self.approach_trunk(env).is_some();
+        let min_lead =
+            if cur_lead < -(cfg.max_step_m - cfg.min_step_m) || girdle_locked || tail_first_closing
+            {
+                cur_lead + cfg.min_step_m
+            } else {
+                0.0
+            };
         match p.side_step {
             // Side-stepping, the girdle's limbs keep about level on the axis
             // (around it, the pair is always apart by the grip angle).
