@@ -60,7 +60,7 @@ fn stages(c: &mut Criterion) {
     g.bench_function("step_search", |b| {
         b.iter_batched_ref(
             || prepared.clone(),
-            |v| v.iter_mut().for_each(|(s, t)| s.step_search(&w, t)),
+            |v| v.iter_mut().for_each(|(s, t)| s.step_search(&w, t, None)),
             BatchSize::LargeInput,
         )
     });

@@ -8,7 +8,7 @@ use std::mem::{offset_of, size_of};
 
 use slothsim::gait::{LimbState, LoadTrack, Sloth};
 use slothsim::sim::world::CrowdPoints;
-use slothsim::sim::{BodyAverageMemo, CcdMemo, GripLoad, SlothId, SlothState, Traces};
+use slothsim::sim::{BodyAverageMemo, CcdMemo, GripLoad, NearStances, SlothId, SlothState, Traces};
 
 fn main() {
     let rows: [(&str, usize); 6] = [
@@ -26,6 +26,12 @@ fn main() {
         total += n;
     }
     println!("{:<24}{total:>6}", "a sloth's components");
+    // Goal-mode sloths only (scenario runs): not in a wanderer's table.
+    println!(
+        "{:<24}{:>6}",
+        "NearStances (goal mode)",
+        size_of::<NearStances>()
+    );
     println!();
     println!("{:<24}{:>6}", "Sloth", size_of::<Sloth>());
     println!("{:<24}{:>6}", "  LimbState (x4)", size_of::<LimbState>());

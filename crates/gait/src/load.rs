@@ -529,8 +529,8 @@ mod tests {
     use slothsim_scene::PresetKind;
 
     use super::*;
-    use crate::sloth::TraceBatch;
     use crate::sloth::test_util::preset_sloth;
+    use crate::sloth::{NearRing, TraceBatch};
 
     const DT: f32 = 1.0 / 60.0;
 
@@ -546,9 +546,10 @@ mod tests {
             let (env, mut sloth) = preset_sloth(kind);
             let view = env.view();
             let mut batch = TraceBatch::default();
+            let mut near = NearRing::default();
             for frame in 0..1200 {
                 batch.run(&view.query);
-                sloth.step_search(&view, &mut batch);
+                sloth.step_search(&view, &mut batch, Some(&mut near));
                 sloth.body_average(&view, DT);
                 sloth.solve_limbs(&view);
                 let before = sloth.load.solved_from;
@@ -603,10 +604,11 @@ mod tests {
             let (mut env, mut sloth) = preset_sloth(kind);
             let release_bw = env.cfg.release_residual_bw;
             let mut batch = TraceBatch::default();
+            let mut near = NearRing::default();
             for frame in 0..600 {
                 let view = env.view();
                 batch.run(&view.query);
-                sloth.step_search(&view, &mut batch);
+                sloth.step_search(&view, &mut batch, Some(&mut near));
                 sloth.body_average(&view, DT);
                 sloth.solve_limbs(&view);
                 sloth.grip_load(&view, DT, 1);

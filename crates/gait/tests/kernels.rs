@@ -6,8 +6,8 @@
 
 use glam::Vec3;
 use slothsim_gait::{
-    LimbPhase, LocoEnv, LocoView, LocomotionConfig, Profile, Sequence, Sloth, SpawnHint, Status,
-    TraceBatch, project,
+    LimbPhase, LocoEnv, LocoView, LocomotionConfig, NearRing, Profile, Sequence, Sloth, SpawnHint,
+    Status, TraceBatch, project,
 };
 use slothsim_rig::{Limb, Rig};
 use slothsim_scene::{Preset, SupportKind, TraceScene};
@@ -38,9 +38,9 @@ fn spawn_at_start(view: &LocoView<'_>, preset: &Preset) -> Sloth {
 
 /// One tick, the stages in the sim's order (Trace, StepSearch, BodyAverage,
 /// CcdSolve, Transitions).
-fn tick(sloth: &mut Sloth, view: &LocoView<'_>, batch: &mut TraceBatch) {
+fn tick(sloth: &mut Sloth, near: &mut NearRing, view: &LocoView<'_>, batch: &mut TraceBatch) {
     batch.run(&view.query);
-    sloth.step_search(view, batch);
+    sloth.step_search(view, batch, Some(near));
     sloth.body_average(view, DT);
     sloth.solve_limbs(view);
     sloth.transitions(view, DT, batch);
@@ -56,6 +56,7 @@ fn step_search_takes_a_forward_grip_on_the_surface_within_reach() {
     let view = env.view();
     let mut sloth = spawn_at_start(&view, &preset);
     let mut batch = TraceBatch::default();
+    let mut near = NearRing::default();
     let travel = preset.start.forward.normalize();
     let pole = view.scene().support(preset.start.support);
     // Tick until a limb's search has started a swing.
@@ -63,7 +64,7 @@ fn step_search_takes_a_forward_grip_on_the_surface_within_reach() {
         .find_map(|_| {
             batch.run(&view.query);
             let before = sloth.limbs;
-            sloth.step_search(&view, &mut batch);
+            sloth.step_search(&view, &mut batch, Some(&mut near));
             let started = (0..4).find(|&i| {
                 before[i].phase == LimbPhase::Searching
                     && sloth.limbs[i].phase == LimbPhase::Swinging
@@ -104,7 +105,7 @@ fn step_search_takes_a_forward_grip_on_the_surface_within_reach() {
         if sloth.limbs[li].phase != LimbPhase::Swinging {
             break;
         }
-        tick(&mut sloth, &view, &mut batch);
+        tick(&mut sloth, &mut near, &view, &mut batch);
     }
     let l = sloth.limbs[li];
     assert_eq!(l.grip, new, "the limb landed where it stepped to");
@@ -244,9 +245,10 @@ fn branch_to_trunk_transfer_starts_and_finishes() {
     let mut sloth = spawn_at_start(&view, &preset);
     assert!(sloth.transfer.is_none());
     let mut batch = TraceBatch::default();
+    let mut near = NearRing::default();
     let (mut started, mut finished) = (None, None);
     for frame in 0..(120.0 / DT) as u32 {
-        tick(&mut sloth, &view, &mut batch);
+        tick(&mut sloth, &mut near, &view, &mut batch);
         assert!(sloth.status != Status::NoGrip, "stuck at frame {frame}");
         match (sloth.transfer, started) {
             (Some(tr), None) => {
@@ -275,7 +277,7 @@ fn branch_to_trunk_transfer_starts_and_finishes() {
     }
     // The body's forward settles onto the trunk's axis within a few frames.
     for _ in 0..30 {
-        tick(&mut sloth, &view, &mut batch);
+        tick(&mut sloth, &mut near, &view, &mut batch);
     }
     let head_up = (sloth.body_rot * Vec3::Z).y;
     assert!(head_up > 0.9, "body forward·up = {head_up} on the trunk");

@@ -29,7 +29,8 @@ impl SlothObject {
         for i in 0..self.traces.len {
             self.traces.results[i] = w.query.trace_brute_force(&self.traces.reqs[i]);
         }
-        self.sloth.step_search(&w, &mut self.traces);
+        // A crowd's sloths wander: no goal-mode stance record.
+        self.sloth.step_search(&w, &mut self.traces, None);
         self.sloth.body_average(&w, dt);
         self.sloth.solve_limbs(&w);
         self.sloth.grip_load(&w, dt, crate::world::CROWD_LOAD_EVERY);

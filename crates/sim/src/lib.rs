@@ -25,7 +25,7 @@ pub use scenario::{
 pub use schedule::{STAGES, SimSystems, StageTimings, build_schedule, init_compute_pool};
 pub use world::{
     BodyAverageMemo, CROWD_LOAD_EVERY, CcdMemo, CrowdNeighbours, GripLoad, GripLoadEvery,
-    Locomotion, SimClock, SlothId, SlothState, Traces, new_world, spawn_sloth,
+    Locomotion, NearStances, SimClock, SlothId, SlothState, Traces, new_world, spawn_sloth,
 };
 
 /// Writes a file through a temporary name (the scene crate's one helper).

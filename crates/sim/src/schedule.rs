@@ -26,7 +26,7 @@ use slothsim_gait::{HashedPoint, Job, Jobs, Serial, Sloth};
 
 use crate::world::{
     BodyAverageMemo, CcdMemo, CrowdNeighbours, CrowdPoints, GripLoad, GripLoadEvery, Locomotion,
-    SimClock, SlothId, SlothState, Traces,
+    NearStances, SimClock, SlothId, SlothState, Traces,
 };
 
 /// The stages of one tick, in order. The first five and the parallel part
@@ -164,6 +164,7 @@ fn sloth_pass(
         &mut CcdMemo,
         &mut GripLoad,
         &mut CrowdPoints,
+        Option<&mut NearStances>,
     )>,
     mut timings: ResMut<StageTimings>,
 ) {
@@ -182,7 +183,8 @@ fn sloth_pass(
                      bodies: &mut [BodyAverageMemo],
                      solves: &mut [CcdMemo],
                      loads: &mut [GripLoad],
-                     points: &mut [CrowdPoints]| {
+                     points: &mut [CrowdPoints],
+                     near: Option<&mut [NearStances]>| {
             let mut laps = Laps::new();
             let mut traced = 0;
             // `traces_queued` instead of the batch's `len`: an empty batch's
@@ -194,8 +196,19 @@ fn sloth_pass(
                 }
             }
             laps.lap(0);
-            for (s, tr) in states.iter_mut().zip(traces.iter_mut()) {
-                s.0.step_search(&searching, &mut tr.0);
+            // Goal-mode sloths (a table of their own) hand the search
+            // their stance record; wanderers have none.
+            match near {
+                Some(near) => {
+                    for ((s, tr), n) in states.iter_mut().zip(traces.iter_mut()).zip(near) {
+                        s.0.step_search(&searching, &mut tr.0, Some(&mut n.0));
+                    }
+                }
+                None => {
+                    for (s, tr) in states.iter_mut().zip(traces.iter_mut()) {
+                        s.0.step_search(&searching, &mut tr.0, None);
+                    }
+                }
             }
             laps.lap(1);
             for (s, m) in states.iter_mut().zip(bodies.iter_mut()) {
@@ -225,7 +238,15 @@ fn sloth_pass(
         };
         match q.contiguous_par_iter_mut() {
             Ok(it) => it.batching_strategy(BATCHING).for_each(
-                |(mut states, mut traces, mut bodies, mut solves, mut loads, mut points)| {
+                |(
+                    mut states,
+                    mut traces,
+                    mut bodies,
+                    mut solves,
+                    mut loads,
+                    mut points,
+                    mut near,
+                )| {
                     // Once a batch: each `DerefMut` marks the whole batch changed.
                     let (states, traces, bodies, solves, loads, points) = (
                         &mut *states,
@@ -245,13 +266,14 @@ fn sloth_pass(
                             &mut solves[a..b],
                             &mut loads[a..b],
                             &mut points[a..b],
+                            near.as_deref_mut().map(|n| &mut n[a..b]),
                         );
                     }
                 },
             ),
             // Not dense (a sparse-set component was added): one sloth at a time.
             Err(_) => q.par_iter_mut().batching_strategy(BATCHING).for_each(
-                |(mut s, mut tr, mut b, mut m, mut g, mut p)| {
+                |(mut s, mut tr, mut b, mut m, mut g, mut p, mut n)| {
                     chunk(
                         std::slice::from_mut(&mut *s),
                         std::slice::from_mut(&mut *tr),
@@ -259,6 +281,7 @@ fn sloth_pass(
                         std::slice::from_mut(&mut *m),
                         std::slice::from_mut(&mut *g),
                         std::slice::from_mut(&mut *p),
+                        n.as_deref_mut().map(std::slice::from_mut),
                     );
                 },
             ),

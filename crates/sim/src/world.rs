@@ -4,8 +4,8 @@ use bevy_ecs::prelude::*;
 // Re-exported so `crate::world::crowd_points` (crowd.rs) keeps working; it lives in gait.
 pub use slothsim_gait::crowd_points;
 use slothsim_gait::{
-    BodyMemo, CrowdGrid, HashedPoint, LimbLoads, LocoEnv, LocoView, LocomotionConfig, Sloth,
-    SolveMemo, SpawnHint, TraceBatch,
+    BodyMemo, CrowdGrid, HashedPoint, LimbLoads, LocoEnv, LocoView, LocomotionConfig, NearRing,
+    Sloth, SolveMemo, SpawnHint, TraceBatch,
 };
 use slothsim_rig::Rig;
 use slothsim_scene::{SupportId, TraceScene};
@@ -18,6 +18,13 @@ pub struct SlothId(pub u32);
 #[derive(Component, Clone, Debug)]
 #[require(CrowdPoints, CcdMemo, BodyAverageMemo, GripLoad)]
 pub struct SlothState(pub Sloth);
+
+/// A goal-mode sloth's record of the stances it took since it last came
+/// nearer its goal ([`NearRing`], read and written by its step search). Only
+/// sloths that keep one ([`Sloth::keeps_near_record`]: scenario runs) have
+/// this component; a crowd of wanderers carries none of its 840 bytes.
+#[derive(Component, Clone, Copy, Debug, Default)]
+pub struct NearStances(pub NearRing);
 
 /// What the CcdSolve stage keeps of a sloth's last solve, to skip the next one
 /// where it would change nothing ([`Sloth::solve_limbs_memo`]).
@@ -186,7 +193,9 @@ pub fn spawn_sloth(
         let loco = world.resource::<Locomotion>();
         Sloth::spawn(&loco.view(), hint, goal)
     };
-    world
-        .spawn((SlothId(id), SlothState(sloth), Traces::default()))
-        .id()
+    let mut e = world.spawn((SlothId(id), SlothState(sloth), Traces::default()));
+    if sloth.keeps_near_record() {
+        e.insert(NearStances::default());
+    }
+    e.id()
 }

@@ -147,6 +147,7 @@ impl Sloth {
 mod tests {
     use slothsim_scene::PresetKind;
 
+    use super::super::NearRing;
     use super::super::test_util::{preset_sloth, tick};
     use super::*;
 
@@ -175,12 +176,13 @@ mod tests {
             let view = env.view();
             sloth.wander = true;
             let mut batch = TraceBatch::default();
+            let mut near = NearRing::default();
             for _ in 0..900 {
                 if sloth.failed_searches == 0 {
                     sloth.failed_searches = 1;
                 }
                 let before = sloth;
-                tick(&mut sloth, &view, &mut batch);
+                tick(&mut sloth, &mut near, &view, &mut batch);
                 for li in 0..4 {
                     let (a, b) = (before.limbs[li], sloth.limbs[li]);
                     if a.phase == LimbPhase::Searching && !a.probe {

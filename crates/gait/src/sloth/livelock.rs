@@ -18,6 +18,12 @@
 //! on the third exact visit, and its back-off unlocks transfers that
 //! refusing the visit would leave circling (branch_trunk at 98°, 125° and
 //! 126°, 0.2 m, were lost that way).
+//!
+//! The record ([`NearRing`], 840 bytes) is not a part of [`Sloth`]: a
+//! wanderer never reads it, and `Sloth` is copied whole for every stance a
+//! step check looks ahead to. The caller keeps it beside the sloth (the sim:
+//! a component of goal-mode sloths only) and hands it to
+//! [`Sloth::step_search`].
 
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
@@ -89,18 +95,24 @@ impl Sloth {
         self.goal.is_some() && !self.wander && self.backoff.is_none() && self.turn.is_none()
     }
 
-    /// After limb `li` took a step: records the stance (see the module
-    /// docs); clears the record where it does not apply, or where the
-    /// grips came [`NEAR_PROGRESS_M`] nearer the goal.
-    pub(super) fn note_near_stance(&mut self, li: usize) {
+    /// Whether this sloth keeps a [`NearRing`] (goal mode, not wandering):
+    /// a sloth for which this is true must be handed its record by every
+    /// [`Sloth::step_search`].
+    pub fn keeps_near_record(&self) -> bool {
+        self.goal.is_some() && !self.wander
+    }
+
+    /// After limb `li` took a step: records the stance in `r` (see the
+    /// module docs); clears the record where it does not apply, or where
+    /// the grips came [`NEAR_PROGRESS_M`] nearer the goal.
+    pub(super) fn note_near_stance(&self, li: usize, r: &mut NearRing) {
         let Some((_, goal)) = self.goal else { return };
         if !self.near_recorded() {
-            self.near_stances.count = 0;
+            r.count = 0;
             return;
         }
         let grips = self.limb_map(|l| l.grip.point);
         let d = (grips.iter().copied().sum::<Vec3>() * 0.25).distance(goal);
-        let r = &mut self.near_stances;
         if r.count == 0 || d < r.best - NEAR_PROGRESS_M {
             r.count = 0;
             r.best = d;
@@ -120,10 +132,17 @@ impl Sloth {
 
     /// Whether limb `li`'s step to `point` (with the hind pair's partner's
     /// step `pair`) would take a stance taken [`NEAR_TAKEN_MAX`] times
-    /// since the sloth last came nearer its goal: the search passes it by.
-    pub(super) fn near_refused(&self, li: usize, point: Vec3, pair: Option<(usize, Grip)>) -> bool {
+    /// since the sloth last came nearer its goal (record `r`): the search
+    /// passes it by.
+    pub(super) fn near_refused(
+        &self,
+        li: usize,
+        point: Vec3,
+        pair: Option<(usize, Grip)>,
+        r: &NearRing,
+    ) -> bool {
         // Goal mode first: a wanderer's search does not touch the record's lines.
-        if !self.near_recorded() || self.transfer.is_some() || self.near_stances.count == 0 {
+        if !self.near_recorded() || self.transfer.is_some() || r.count == 0 {
             return false;
         }
         let mut grips = self.limb_map(|l| l.grip.point);
@@ -131,9 +150,8 @@ impl Sloth {
         if let Some((pi, g)) = pair {
             grips[pi] = g.point;
         }
-        self.near_stances
-            .find(li, &grips)
-            .is_some_and(|k| self.near_stances.stances[k].taken >= NEAR_TAKEN_MAX)
+        r.find(li, &grips)
+            .is_some_and(|k| r.stances[k].taken >= NEAR_TAKEN_MAX)
     }
 }
 
@@ -158,37 +176,39 @@ mod tests {
         let (_env, s) = preset_sloth(PresetKind::BranchTrunk);
         let (_, goal) = s.goal.unwrap();
         let mut s = s;
+        let mut r = NearRing::default();
         // Three stances of a circle: LH (index 2) out, back, out again.
         let out = Vec3::new(0.03, 0.0, 0.0);
         let lh = |d: Vec3| [Vec3::ZERO, Vec3::ZERO, d, Vec3::ZERO];
         let base = s;
         for d in [out, Vec3::ZERO, out] {
             s.limbs = shifted(&base, lh(d)).limbs;
-            s.note_near_stance(2);
+            s.note_near_stance(2, &mut r);
         }
         let there = base.limbs[2].grip.point + out;
         // Taken twice: refused, also 5 mm off; 2 cm off it is another stance.
-        assert!(s.near_refused(2, there, None));
-        assert!(s.near_refused(2, there + Vec3::new(0.0, 0.005, 0.0), None));
-        assert!(!s.near_refused(2, there + Vec3::new(0.0, 0.02, 0.0), None));
+        assert!(s.near_refused(2, there, None, &r));
+        assert!(s.near_refused(2, there + Vec3::new(0.0, 0.005, 0.0), None, &r));
+        assert!(!s.near_refused(2, there + Vec3::new(0.0, 0.02, 0.0), None, &r));
         // Taken once (LH back home) is not refused; another limb's step to
         // the same stance is another stance.
-        assert!(!s.near_refused(2, base.limbs[2].grip.point, None));
+        assert!(!s.near_refused(2, base.limbs[2].grip.point, None, &r));
         // In wander mode or without a goal: never.
         let mut w = s;
         w.wander = true;
-        assert!(!w.near_refused(2, there, None));
+        assert!(!w.near_refused(2, there, None, &r));
         let mut g = s;
         g.goal = None;
-        assert!(!g.near_refused(2, there, None));
+        assert!(!g.near_refused(2, there, None, &r));
         // Coming nearer the goal by more than NEAR_PROGRESS_M starts the
         // record again.
         let centroid = s.limbs.iter().map(|l| l.grip.point).sum::<Vec3>() * 0.25;
         let toward = (goal - centroid).normalize() * (NEAR_PROGRESS_M + 0.02);
-        let mut p = shifted(&s, [toward; 4]);
-        p.note_near_stance(1);
+        let p = shifted(&s, [toward; 4]);
+        let mut rp = r;
+        p.note_near_stance(1, &mut rp);
         let there2 = there + toward;
-        assert_eq!(p.near_stances.count, 1);
-        assert!(!p.near_refused(2, there2, None));
+        assert_eq!(rp.count, 1);
+        assert!(!p.near_refused(2, there2, None, &rp));
     }
 }

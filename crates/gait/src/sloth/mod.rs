@@ -42,6 +42,7 @@ mod transfer;
 mod turn;
 
 pub use body::BodyMemo;
+pub use livelock::NearRing;
 pub use replan::Backoff;
 pub use solve::SolveMemo;
 pub use transfer::Transfer;
@@ -354,10 +355,9 @@ pub struct Sloth {
     /// while the search was failing (see [`Sloth::note_stuck_stance`]).
     #[serde(default)]
     pub stuck_stances: transfer::StanceRing,
-    /// Goal mode: the stances taken since the sloth last came nearer its
-    /// goal (see `livelock.rs`). Checkpointed (format 26).
-    #[serde(default)]
-    pub near_stances: livelock::NearRing,
+    // Goal mode's record of the stances taken since the sloth last came
+    // nearer its goal ([`NearRing`], `livelock.rs`) is kept beside the
+    // sloth, not in it: see `Sloth::step_search`.
 }
 
 /// Serde for [`ChainPose`] (four quaternions, bit-exact through serde's f32).

@@ -10,7 +10,8 @@ use super::body::{BodySide, body_offset};
 use super::candidate::CandidateAt;
 use super::route::search_ahead;
 use super::{
-    Fallback, Grip, LimbPhase, LocoView, MAX_TRACES, Search, Sloth, Status, StuckCause, TraceBatch,
+    Fallback, Grip, LimbPhase, LocoView, MAX_TRACES, NearRing, Search, Sloth, Status, StuckCause,
+    TraceBatch,
 };
 
 /// Reach-checked step-search candidates per limb per frame.
@@ -58,7 +59,20 @@ impl Sloth {
     /// StepSearch: evaluate traced candidates (in order: farthest first); the
     /// first valid one becomes the limb's new grip and its swing starts. Limbs
     /// still searching queue their next candidates into `batch`.
-    pub fn step_search(&mut self, env: &LocoView<'_>, batch: &mut TraceBatch) {
+    ///
+    /// `near`: the goal-mode record of stances taken (`livelock.rs`), kept
+    /// beside the sloth; `None` for a sloth that keeps none (a wanderer:
+    /// [`Sloth::keeps_near_record`] is false).
+    pub fn step_search(
+        &mut self,
+        env: &LocoView<'_>,
+        batch: &mut TraceBatch,
+        mut near: Option<&mut NearRing>,
+    ) {
+        debug_assert!(
+            near.is_some() || !self.keeps_near_record(),
+            "a goal-mode sloth's step search without its stance record"
+        );
         // Nothing queued and no limb searching: the batch is empty and stays
         // so (what follows would read and clear an empty batch).
         if !self.traces_queued && self.limbs.iter().all(|l| l.phase != LimbPhase::Searching) {
@@ -160,7 +174,10 @@ impl Sloth {
             });
             // Goal mode, outside transfers: not a stance circled over
             // twice already (see `livelock.rs`).
-            if self.near_refused(li, grip.point, pair_grip) {
+            if near
+                .as_deref()
+                .is_some_and(|r| self.near_refused(li, grip.point, pair_grip, r))
+            {
                 continue;
             }
             // Stuck (a search gave up since the last step): any step that
@@ -204,7 +221,9 @@ impl Sloth {
             self.note_step(env);
             self.note_transfer_stance(env, li);
             self.note_stuck_stance(env, li, failing);
-            self.note_near_stance(li);
+            if let Some(r) = near.as_deref_mut() {
+                self.note_near_stance(li, r);
+            }
         }
         batch.len = 0;
         self.traces_queued = false;

@@ -110,7 +110,6 @@ impl Sloth {
             goal_side: None,
             failed_searches: 0,
             stuck_stances: Default::default(),
-            near_stances: Default::default(),
             wander: false,
             traces_queued: false,
             seed: 0,

@@ -3,7 +3,7 @@
 use slothsim_rig::Rig;
 use slothsim_scene::{Preset, PresetKind, TraceScene};
 
-use super::{Sloth, SpawnHint, TraceBatch};
+use super::{NearRing, Sloth, SpawnHint, TraceBatch};
 use crate::{LocoEnv, LocoView, LocomotionConfig, Profile};
 
 /// Uniform numbers in 0..1 from an xorshift generator seeded with `s`.
@@ -41,9 +41,14 @@ pub(crate) fn preset_sloth_with(kind: PresetKind, profile: Profile) -> (LocoEnv,
 }
 
 /// One 60 Hz tick of `sloth`, the stages in the sim's order.
-pub(crate) fn tick(sloth: &mut Sloth, view: &LocoView<'_>, batch: &mut TraceBatch) {
+pub(crate) fn tick(
+    sloth: &mut Sloth,
+    near: &mut NearRing,
+    view: &LocoView<'_>,
+    batch: &mut TraceBatch,
+) {
     batch.run(&view.query);
-    sloth.step_search(view, batch);
+    sloth.step_search(view, batch, Some(near));
     sloth.body_average(view, 1.0 / 60.0);
     sloth.solve_limbs(view);
     sloth.transitions(view, 1.0 / 60.0, batch);
@@ -66,8 +71,9 @@ pub(crate) fn walk_presets_with(
         let (env, mut sloth) = preset_sloth_with(kind, profile);
         let view = env.view();
         let mut batch = TraceBatch::default();
+        let mut near = NearRing::default();
         for frame in 0..900 {
-            tick(&mut sloth, &view, &mut batch);
+            tick(&mut sloth, &mut near, &view, &mut batch);
             if frame % every == 0 {
                 f(kind, &view, frame, sloth);
             }

@@ -654,7 +654,7 @@ mod tests {
     use slothsim_scene::{Preset, Scene, Support, TraceScene};
 
     use super::super::test_util::tick;
-    use super::super::{SpawnHint, TraceBatch};
+    use super::super::{NearRing, SpawnHint, TraceBatch};
     use super::*;
     use crate::{LocoEnv, LocomotionConfig, Profile};
 
@@ -709,9 +709,10 @@ mod tests {
         let mut sloth = Sloth::spawn(&view, &hint, Some((g.support, g.point, g.tolerance)));
         sloth.goal_side = g.side;
         let mut batch = TraceBatch::default();
+        let mut near = NearRing::default();
         let mut cases = 0;
         for frame in 0..7200 {
-            tick(&mut sloth, &view, &mut batch);
+            tick(&mut sloth, &mut near, &view, &mut batch);
             check(&view, frame, sloth, &mut cases);
         }
         assert!(cases > 20, "{cases} stances tried");

@@ -5,14 +5,14 @@
 use std::path::Path;
 
 use serde::{Deserialize, Serialize};
-use slothsim_gait::{LocomotionConfig, Sloth, TraceBatch};
+use slothsim_gait::{LocomotionConfig, NearRing, Sloth, TraceBatch};
 use slothsim_rig::Rig;
 use slothsim_scene::{Scene, TraceScene};
 
 use super::hash::Fnv;
 use super::stats::crowd_judge;
 use super::{Crowd, CrowdError, CrowdSpec, ForestSource, scene_hash};
-use crate::world::{CrowdNeighbours, Locomotion, SlothId, SlothState, Traces};
+use crate::world::{CrowdNeighbours, Locomotion, NearStances, SlothId, SlothState, Traces};
 
 const MAGIC: &[u8; 16] = b"SLOTHSIM-STATE\0\0";
 /// Checkpoint format version; bump on any change of the saved data.
@@ -27,8 +27,19 @@ struct Checkpoint {
     frame: u64,
     cfg: LocomotionConfig,
     forest: ForestSource,
-    sloths: Vec<Sloth>,
+    sloths: Vec<SavedSloth>,
     traces: Vec<TraceBatch>,
+}
+
+/// A sloth as a checkpoint holds it: its state, then its goal-mode stance
+/// record ([`NearStances`]; an empty one for a sloth without). Postcard
+/// writes a struct as its fields one after another, so these are the bytes
+/// of format 27's `Sloth`, whose last field the record was: the format did
+/// not change when the record moved out of `Sloth`.
+#[derive(Serialize, Deserialize)]
+struct SavedSloth {
+    sloth: Sloth,
+    near: NearRing,
 }
 
 /// What a checkpoint holds besides the sloths: enough to rebuild the run.
@@ -57,12 +68,21 @@ impl Crowd {
                 "a lone sloth on a scenario preset has no forest to save".into(),
             ));
         };
-        let mut q = self.world.query::<(&SlothId, &SlothState, &Traces)>();
-        let mut rows: Vec<(u32, Sloth, TraceBatch)> = q
+        let mut q = self
+            .world
+            .query::<(&SlothId, &SlothState, &Traces, Option<&NearStances>)>();
+        let mut rows: Vec<(u32, SavedSloth, TraceBatch)> = q
             .iter(&self.world)
-            .map(|(i, s, t)| (i.0, s.0, t.0.clone()))
+            .map(|(i, s, t, n)| {
+                let saved = SavedSloth {
+                    sloth: s.0,
+                    near: n.map_or_else(NearRing::default, |n| n.0),
+                };
+                (i.0, saved, t.0.clone())
+            })
             .collect();
         rows.sort_unstable_by_key(|r| r.0);
+        let (sloths, traces) = rows.into_iter().map(|r| (r.1, r.2)).unzip();
         let cp = Checkpoint {
             pkg_version: env!("CARGO_PKG_VERSION").to_string(),
             seed: self.spec.seed,
@@ -71,8 +91,8 @@ impl Crowd {
             frame: self.frame(),
             cfg: self.spec.cfg.clone(),
             forest,
-            sloths: rows.iter().map(|r| r.1).collect(),
-            traces: rows.into_iter().map(|r| r.2).collect(),
+            sloths,
+            traces,
         };
         let payload = postcard::to_stdvec(&cp).map_err(|e| err(format!("encode: {e}")))?;
         let mut h = Fnv::new();
@@ -118,7 +138,7 @@ impl Crowd {
         if cp.sloths.len() != cp.traces.len() || cp.sloths.is_empty() {
             return Err(err("corrupt: sloth count".into()));
         }
-        if cp.sloths.iter().any(|s| {
+        if cp.sloths.iter().map(|s| &s.sloth).any(|s| {
             !(s.body_pos.is_finite()
                 && s.body_rot.is_finite()
                 && s.limbs.iter().all(|l| l.pose.is_finite()))
@@ -155,7 +175,7 @@ impl Crowd {
             ));
         }
         let n = scene.supports().len() as u32;
-        if cp.sloths.iter().any(|s| {
+        if cp.sloths.iter().map(|s| &s.sloth).any(|s| {
             s.limbs
                 .iter()
                 .any(|l| l.grip.support.0 >= n || l.search.support.0 >= n)
@@ -172,8 +192,22 @@ impl Crowd {
         spec.validate()?;
         let loco = Locomotion::new(spec.cfg.clone(), rig, TraceScene::new(scene))?;
         let neighbours = CrowdNeighbours::new(spec.clearance_m);
-        let sloths = cp.sloths.into_iter().zip(cp.traces).collect();
-        Ok(Self::assemble(
+        // The stance records of the sloths that keep one (none in a crowd of
+        // wanderers), in id order (the checkpoint's), put back once the
+        // sloths are assembled.
+        let records: Vec<(u32, NearRing)> = cp
+            .sloths
+            .iter()
+            .filter(|s| s.sloth.keeps_near_record())
+            .map(|s| (s.sloth.id, s.near))
+            .collect();
+        let sloths = cp
+            .sloths
+            .into_iter()
+            .map(|s| s.sloth)
+            .zip(cp.traces)
+            .collect();
+        let mut crowd = Self::assemble(
             spec,
             loco,
             Some(cp.forest),
@@ -181,6 +215,15 @@ impl Crowd {
             sloths,
             cp.frame,
             crowd_judge(),
-        ))
+        );
+        if !records.is_empty() {
+            let mut q = crowd.world.query::<(&SlothId, &mut NearStances)>();
+            for (i, mut n) in q.iter_mut(&mut crowd.world) {
+                if let Ok(k) = records.binary_search_by_key(&i.0, |r| r.0) {
+                    n.0 = records[k].1;
+                }
+            }
+        }
+        Ok(crowd)
     }
 }

@@ -19,8 +19,8 @@ use slothsim_scene::ForestConfig;
 
 use crate::StageTimings;
 use crate::world::{
-    CrowdNeighbours, GripLoad, GripLoadEvery, Locomotion, SimClock, SlothId, SlothState, Traces,
-    new_world,
+    CrowdNeighbours, GripLoad, GripLoadEvery, Locomotion, NearStances, SimClock, SlothId,
+    SlothState, Traces, new_world,
 };
 
 pub mod checkpoint;
@@ -141,7 +141,9 @@ impl Crowd {
     /// The world of `sloths` with their queued traces at `frame`, each
     /// with an [`Observer`] judging with `judge`. With `neighbours`, sloths
     /// keep clear of each other; without, a sloth is alone (a scenario run,
-    /// whose observer also keeps every observation).
+    /// whose observer also keeps every observation). A sloth that keeps a
+    /// goal-mode stance record ([`Sloth::keeps_near_record`]) gets an empty
+    /// [`NearStances`].
     fn assemble(
         spec: CrowdSpec,
         loco: Locomotion,
@@ -166,19 +168,27 @@ impl Crowd {
         if let Some(n) = neighbours {
             world.insert_resource(n);
         }
-        world.spawn_batch(
-            sloths
-                .into_iter()
-                .map(|(s, tr)| {
-                    (
-                        SlothId(s.id),
-                        Observer::new(judge.clone(), s.time, keep_history),
-                        SlothState(s),
-                        Traces(tr),
-                    )
-                })
-                .collect::<Vec<_>>(),
-        );
+        let keeps: Vec<bool> = sloths.iter().map(|(s, _)| s.keeps_near_record()).collect();
+        let entities: Vec<Entity> = world
+            .spawn_batch(
+                sloths
+                    .into_iter()
+                    .map(|(s, tr)| {
+                        (
+                            SlothId(s.id),
+                            Observer::new(judge.clone(), s.time, keep_history),
+                            SlothState(s),
+                            Traces(tr),
+                        )
+                    })
+                    .collect::<Vec<_>>(),
+            )
+            .collect();
+        for (e, keeps) in entities.into_iter().zip(keeps) {
+            if keeps {
+                world.entity_mut(e).insert(NearStances::default());
+            }
+        }
         Crowd {
             world,
             schedule: crate::build_schedule(),
