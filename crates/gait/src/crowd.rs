@@ -72,9 +72,6 @@ pub struct CrowdGrid {
     staging: Vec<Staged>,
     /// Scratch: points per partition counted by each job.
     counts: Vec<[u32; PARTS]>,
-    /// Each sloth's stall as its neighbours read it, by id (see
-    /// [`CrowdGrid::set_stalls`]; 0 for ids not set).
-    stalls: Vec<u8>,
 }
 
 /// `x.floor() as i32` (saturating, NaN → 0) without the `floorf` call the
@@ -308,38 +305,8 @@ impl CrowdGrid {
         (b as usize & (PARTS - 1)) * self.per_part as usize + (b >> PART_BITS) as usize
     }
 
-    /// Publishes each sloth's stall (`(id, turn-backs since its body last
-    /// travelled)`, see `Sloth::stall_count`) for its neighbours to read,
-    /// replacing the last: set with every rebuild, from the same tick's
-    /// sloths as the points.
-    pub fn set_stalls(&mut self, stalls: impl IntoIterator<Item = (u32, u8)>) {
-        self.stalls.fill(0);
-        for (id, n) in stalls {
-            let i = id as usize;
-            if i >= self.stalls.len() {
-                if n == 0 {
-                    continue;
-                }
-                self.stalls.resize(i + 1, 0);
-            }
-            self.stalls[i] = n;
-        }
-    }
-
-    /// The stall sloth `id` published (0: none, or not in the grid).
-    pub fn stall_of(&self, id: u32) -> u8 {
-        self.stalls.get(id as usize).copied().unwrap_or(0)
-    }
-
     /// Whether a point of a sloth other than `me` lies within the clearance of `p`.
     pub fn blocked(&self, me: u32, p: Vec3) -> bool {
-        self.blocked_by(me, p, |_| true)
-    }
-
-    /// Whether a point of a sloth other than `me` for which `by` holds (its
-    /// id) lies within the clearance of `p`.
-    #[inline]
-    pub fn blocked_by(&self, me: u32, p: Vec3, by: impl Fn(u32) -> bool) -> bool {
         if self.entries.is_empty() || !p.is_finite() {
             return false;
         }
@@ -353,7 +320,7 @@ impl CrowdGrid {
                     let s = self.slot(c + IVec3::new(dx, dy, dz));
                     let (s, e) = (self.starts[s] as usize, self.starts[s + 1] as usize);
                     for &(owner, q) in &self.entries[s..e] {
-                        if owner != me && q.distance_squared(p) < r2 && by(owner) {
+                        if owner != me && q.distance_squared(p) < r2 {
                             return true;
                         }
                     }
@@ -590,22 +557,6 @@ mod tests {
             assert!(g.entries.contains(&(o, p)), "finite point {p} of {o} kept");
         }
         assert!(g.entries.iter().all(|(_, p)| p.is_finite()));
-    }
-
-    #[test]
-    fn blocked_by_filters_owners_and_stalls_are_replaced() {
-        let mut g = CrowdGrid::new(0.3);
-        g.rebuild([(1, Vec3::ZERO), (2, Vec3::new(0.1, 0.0, 0.0))]);
-        let p = Vec3::new(0.05, 0.0, 0.0);
-        assert!(g.blocked_by(3, p, |o| o == 2));
-        assert!(g.blocked_by(2, p, |o| o == 1));
-        assert!(!g.blocked_by(1, p, |o| o == 1));
-        assert!(!g.blocked_by(3, p, |_| false));
-        g.set_stalls([(1, 5), (7, 2)]);
-        assert_eq!((g.stall_of(1), g.stall_of(2), g.stall_of(7)), (5, 0, 2));
-        assert_eq!(g.stall_of(1000), 0);
-        g.set_stalls([(2, 1)]);
-        assert_eq!((g.stall_of(1), g.stall_of(2), g.stall_of(7)), (0, 1, 0));
     }
 
     #[test]

@@ -321,9 +321,6 @@ fn grid_rebuild(
             crowd
                 .grid
                 .rebuild_hashed_with(ids.len(), |i| (ids[i].0, &pts[i].0), &PoolJobs);
-            crowd
-                .grid
-                .set_stalls(ids.iter().zip(pts).map(|(id, p)| (id.0, p.2)));
         } else {
             // Several tables (or none): the points gathered in query order first.
             let all: Vec<(u32, &[HashedPoint; 7])> =
@@ -331,9 +328,6 @@ fn grid_rebuild(
             crowd
                 .grid
                 .rebuild_hashed_with(all.len(), |i| all[i], &PoolJobs);
-            crowd
-                .grid
-                .set_stalls(q.iter().map(|(id, pts)| (id.0, pts.2)));
         }
     }
     clock.frame += 1;

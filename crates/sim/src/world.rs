@@ -59,11 +59,10 @@ impl AsMut<SolveMemo> for CcdMemo {
 
 /// The points a sloth occupies for the others ([`crowd_points`]) with their
 /// grid-cell hashes, written by the Transitions stage in parallel for the
-/// neighbour grid's serial rebuild; the bits of the body rotation they
-/// were made from (`None`: not made yet); and the sloth's stall
-/// (`Sloth::stall_count`), which the grid publishes with the points.
+/// neighbour grid's serial rebuild; and the bits of the body rotation they
+/// were made from (`None`: not made yet).
 #[derive(Component, Clone, Copy, Debug, Default)]
-pub struct CrowdPoints(pub [HashedPoint; 7], pub Option<[u32; 4]>, pub u8);
+pub struct CrowdPoints(pub [HashedPoint; 7], pub Option<[u32; 4]>);
 
 impl CrowdPoints {
     /// Makes `s`'s points hashed for `g`, unless these are they already: the
@@ -76,7 +75,6 @@ impl CrowdPoints {
     #[inline]
     pub fn update(&mut self, rig: &slothsim_gait::RigData, s: &Sloth, g: &CrowdGrid) {
         let bits = |v: glam::Vec3| v.to_array().map(f32::to_bits);
-        self.2 = s.stall_count();
         let rot = s.body_rot.to_array().map(f32::to_bits);
         let kept = self.1 == Some(rot)
             && bits(self.0[0].point) == bits(s.body_pos)
@@ -154,12 +152,8 @@ impl CrowdNeighbours {
         sloths: impl Iterator<Item = (u32, &'a Sloth)>,
     ) {
         let rig = &loco.rig;
-        let mut stalls = Vec::new();
-        self.grid.rebuild_groups(sloths.map(|(id, s)| {
-            stalls.push((id, s.stall_count()));
-            (id, crowd_points(rig, s))
-        }));
-        self.grid.set_stalls(stalls);
+        self.grid
+            .rebuild_groups(sloths.map(|(id, s)| (id, crowd_points(rig, s))));
     }
 }
 

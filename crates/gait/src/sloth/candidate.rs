@@ -16,11 +16,6 @@ use super::body::{grip_out, support_frame};
 use super::route::{SIDE_STEP_AXIAL_SLACK, SideStep};
 use super::{Candidate, Grip, LimbPhase, LocoView, Search, Sloth, Transfer};
 
-/// Wander mode: a sloth that turned back this many times since its body
-/// last travelled a max step (`Sloth::stall_from`) gives way to the less
-/// stalled ([`Sloth::crowd_blocked`]).
-pub(super) const STALL_YIELDS_AT: u8 = 4;
-
 /// How far outside the surface a grip trace starts.
 const TRACE_STANDOFF: f32 = 0.15;
 
@@ -634,27 +629,8 @@ impl Sloth {
     /// Stage 5: the grip (and the hind pair's partner's) within another
     /// sloth's clearance (their bodies and grips of the previous tick).
     fn crowded(&self, env: &LocoView<'_>, p: &Placement) -> bool {
-        self.crowd_blocked(env, p.grip)
-            || p.pair.is_some_and(|(_, p2, _)| self.crowd_blocked(env, p2))
-    }
-
-    /// Whether grip point `p` lies within the clearance of another sloth
-    /// that this one must keep clear of: every other sloth, except one
-    /// that is stalled ([`STALL_YIELDS_AT`] turn-backs or more since its
-    /// body last travelled, as the crowd grid published it, see
-    /// `Sloth::stall_count`) and more stalled than this one (more
-    /// turn-backs, or as many and a higher id): it gives way. Two wanderers
-    /// holding each other's steps at a junction (one stopped, the other
-    /// turning back and forth re-gripping) both count turn-backs; the one
-    /// with more lets the other step past (a total order: never both).
-    pub(super) fn crowd_blocked(&self, env: &LocoView<'_>, p: Vec3) -> bool {
-        let Some(g) = env.crowd else {
-            return false;
-        };
-        let mine = (g.stall_of(self.id), self.id);
-        g.blocked_by(self.id, p, |o| {
-            let n = g.stall_of(o);
-            n < STALL_YIELDS_AT || (n, o) < mine
+        env.crowd.is_some_and(|g| {
+            g.blocked(self.id, p.grip) || p.pair.is_some_and(|(_, p2, _)| g.blocked(self.id, p2))
         })
     }
 

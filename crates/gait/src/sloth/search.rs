@@ -616,17 +616,6 @@ impl Sloth {
         }
     }
 
-    /// Wander mode: the turn-backs since the body last travelled a max step
-    /// ([`Sloth::stall_from`]; 0 in goal mode), which the crowd grid
-    /// publishes to its neighbours (`CrowdGrid::stall_of`).
-    pub fn stall_count(&self) -> u8 {
-        if self.wander {
-            self.stall_from.map_or(0, |(_, n)| n)
-        } else {
-            0
-        }
-    }
-
     /// Wander mode: turn-backs have brought no way on — two without a step,
     /// or two since the body last travelled a max step.
     fn stalled(&self) -> bool {
@@ -676,82 +665,5 @@ impl Sloth {
             let left = if g.sdir > 0.0 { len - g.u } else { g.u };
             self.leads(limb) && left < env.cfg.search_distance_m + env.cfg.end_margin_m
         })
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use glam::Vec3;
-
-    use super::super::candidate::STALL_YIELDS_AT;
-    use super::super::test_util::{walk_presets, xorshift};
-    use crate::CrowdGrid;
-
-    /// A stalled sloth gives way (issue 24, "never frozen"): another sloth's
-    /// points fill everything within reach of a wanderer (every preset's
-    /// walk, every second); its limbs keep clear of them, and have a step
-    /// there exactly where they had one alone and the other sloth is
-    /// stalled (at least `STALL_YIELDS_AT` turn-backs since it last
-    /// travelled) and more stalled than this one (more turn-backs, or as
-    /// many and a higher id). Stalls and ids drawn at random.
-    #[test]
-    fn a_stalled_sloth_gives_way_to_a_less_stalled_one() {
-        let k = STALL_YIELDS_AT;
-        let mut rnd = xorshift(2424);
-        let mut yielded = 0;
-        let mut held = 0;
-        walk_presets(60, |kind, view, frame, mut sloth| {
-            sloth.wander = true;
-            let me = sloth.id;
-            let other = me + 1 + (rnd() * 50.0) as u32;
-            // The other sloth's points every 0.2 m through a 2.4 m cube
-            // about the body: every point of it within 0.3 m of one.
-            let mut pts = Vec::new();
-            for i in 0..13 {
-                for j in 0..13 {
-                    for l in 0..13 {
-                        let d = Vec3::new(i as f32, j as f32, l as f32) * 0.2 - Vec3::splat(1.2);
-                        pts.push(sloth.body_pos + d);
-                    }
-                }
-            }
-            let mut grid = CrowdGrid::new(0.3);
-            for case in 0..4 {
-                let n_me = (rnd() * 2.0 * f32::from(k)) as u8;
-                let n_other = (rnd() * 2.0 * f32::from(k)) as u8;
-                sloth.stall_from = (n_me > 0).then_some((sloth.body_pos, n_me));
-                // The ids' order decides a tie.
-                let (a, b) = if case % 2 == 0 {
-                    (me, other)
-                } else {
-                    (other, me)
-                };
-                sloth.id = a;
-                grid.rebuild(pts.iter().map(|&p| (b, p)));
-                grid.set_stalls([(a, n_me), (b, n_other)]);
-                let crowd = crate::LocoView {
-                    crowd: Some(&grid),
-                    ..*view
-                };
-                let gives_way = n_other >= k && (n_other, b) > (n_me, a);
-                for li in 0..4 {
-                    let alone = sloth.has_step(view, li);
-                    let with = sloth.has_step(&crowd, li);
-                    assert_eq!(
-                        with,
-                        alone && gives_way,
-                        "{kind:?} frame {frame} limb {li}: stalls {n_me} (id {a}) / {n_other} (id {b})"
-                    );
-                    if alone {
-                        if gives_way {
-                            yielded += 1;
-                        } else {
-                            held += 1;
-                        }
-                    }
-                }
-            }
-        });
-        assert!(yielded > 20 && held > 20, "cases {yielded} / {held}");
     }
 }

@@ -520,7 +520,7 @@ impl Sloth {
                     if apart && grip.distance(same_side) < TURN_SIDE_APART_M {
                         return None;
                     }
-                    if self.crowd_blocked(env, grip) {
+                    if env.crowd.is_some_and(|g| g.blocked(self.id, grip)) {
                         return None;
                     }
                     let handover = done && self.hands_over(tr, li, grip, out);
