@@ -565,26 +565,7 @@ impl Sloth {
                 (approx - opp).dot(ss.axis_up).abs() <= cfg.max_girdle_lead * cfg.max_step_m
             }
             None => {
-                let cap = cfg.max_girdle_lead * cfg.max_step_m;
-                // A transfer step may land any way ahead of its girdle partner
-                // (leading limbs reach around the trunk), except, in goal
-                // mode, a hind limb following head first with its partner
-                // left on the support it leaves: the partner must still reach
-                // the new support from behind it, and no later step of either
-                // may close a split past the girdle lead (the pair's leg-order
-                // and reach checks bar it). branch_trunk at 133.5°, 0.2 m: RH
-                // took the trunk 0.28 m up past LH (at the branch's root), and
-                // every trunk grip of LH then failed the same-side spacing to
-                // LF or left RH 2–8 mm past its reach band, those of RH the
-                // girdle lead or LH's reach band: stopped `no_grip`.
-                let following_hind = p.transfer_step
-                    && !self.wander
-                    && self.dir > 0.0
-                    && !limb.is_fore()
-                    && self.limbs[limb.opposite().index()].grip.support
-                        == self.limbs[limb.index()].grip.support;
-                (p.transfer_step && !(following_hind && lead > cap))
-                    || (min_lead..=cap).contains(&lead)
+                p.transfer_step || (min_lead..=cfg.max_girdle_lead * cfg.max_step_m).contains(&lead)
             }
         }
     }
