@@ -198,17 +198,10 @@ fn sloth_pass(
             laps.lap(0);
             // Goal-mode sloths (a table of their own) hand the search
             // their stance record; wanderers have none.
-            match near {
-                Some(near) => {
-                    for ((s, tr), n) in states.iter_mut().zip(traces.iter_mut()).zip(near) {
-                        s.0.step_search(&searching, &mut tr.0, Some(&mut n.0));
-                    }
-                }
-                None => {
-                    for (s, tr) in states.iter_mut().zip(traces.iter_mut()) {
-                        s.0.step_search(&searching, &mut tr.0, None);
-                    }
-                }
+            let mut near = near.map(|n| n.iter_mut());
+            for (s, tr) in states.iter_mut().zip(traces.iter_mut()) {
+                let record = near.as_mut().and_then(Iterator::next).map(|n| &mut n.0);
+                s.0.step_search(&searching, &mut tr.0, record);
             }
             laps.lap(1);
             for (s, m) in states.iter_mut().zip(bodies.iter_mut()) {
