@@ -469,10 +469,9 @@ impl Sloth {
     /// root), and every trunk grip of LH then failed the step length, the
     /// same-side spacing to LF or RH's reach band, those of RH the girdle
     /// lead or LH's reach band: stopped `no_grip`, LH alone on the branch.
-    /// A partner with no step at all is waiting for the fore limbs: once
-    /// they move it has one (0.2 m 98.604°, 104.9°, 150.3° pass so on main
-    /// and failed with the step held back, as did 99.416° with a plain cap
-    /// on the lead).
+    /// A partner with no step at all is waiting for the fore limbs: after
+    /// one of their steps it has one (0.2 m 98.604°, 104.9°, 150.3° pass so
+    /// on main and failed with the step held back; see docs/scenarios.md).
     fn partner_follows(&self, env: &LocoView<'_>, at: &CandidateAt, p: &Placement) -> bool {
         let grip = Grip {
             point: p.grip,
