@@ -189,6 +189,9 @@ impl Sloth {
             return None;
         }
         let (back_scale, lift) = self.reach_at(env, at, &p, passed_fore, checks)?;
+        if self.following_hind_past_lead(env, &p) && !self.partner_follows(env, at, &p) {
+            return None;
+        }
         Some(p.trace(at, back_scale, lift))
     }
 
@@ -440,6 +443,50 @@ impl Sloth {
         !Limb::ALL[li].is_fore()
             && Limb::ALL[lj].is_fore()
             && point.dot(fwd) > self.limbs[lj].grip.point.dot(fwd) - env.cfg.leg_order_margin_m
+    }
+
+    /// Goal mode, head first: a hind limb's transfer step with its girdle
+    /// partner still on the support it leaves, landing more than the girdle
+    /// lead (`max_girdle_lead × max_step_m`) ahead of the partner (a transfer
+    /// step is otherwise exempt from the girdle lead: leading limbs reach
+    /// around the trunk).
+    fn following_hind_past_lead(&self, env: &LocoView<'_>, p: &Placement) -> bool {
+        let cfg = env.cfg;
+        let limb = p.limb;
+        if !(p.transfer_step && !self.wander && self.dir > 0.0 && !limb.is_fore()) {
+            return false;
+        }
+        let partner = self.limbs[limb.opposite().index()].grip;
+        partner.support == self.limbs[limb.index()].grip.support
+            && (p.grip - partner.point).dot(p.travel) > cfg.max_girdle_lead * cfg.max_step_m
+    }
+
+    /// Lookahead for [`Self::following_hind_past_lead`] (cheap checks and
+    /// reach, no traces): after the step, the partner left on the old
+    /// support has a step onto the new one, or no step at all. One that keeps
+    /// only steps along the old support is left there: branch_trunk at
+    /// 133.5°, 0.2 m, RH took the trunk 0.28 m up past LH (at the branch's
+    /// root), and every trunk grip of LH then failed the step length, the
+    /// same-side spacing to LF or RH's reach band, those of RH the girdle
+    /// lead or LH's reach band: stopped `no_grip`, LH alone on the branch.
+    /// A partner with no step at all is waiting for the fore limbs: after
+    /// one of their steps it has one (0.2 m 98.604°, 104.9°, 150.3° pass so
+    /// on main and failed with the step held back; see docs/scenarios.md).
+    fn partner_follows(&self, env: &LocoView<'_>, at: &CandidateAt, p: &Placement) -> bool {
+        let grip = Grip {
+            point: p.grip,
+            normal: p.out,
+            support: at.support,
+            u: at.u,
+            sdir: at.sdir,
+        };
+        let next = self.after_steps(env, [(at.limb, grip)]);
+        let pi = p.limb.opposite().index();
+        !next.has_step(env, pi)
+            || (next.may_follow(env, pi, at.support)
+                && next
+                    .neighbour_search(env, pi, at.support, 0)
+                    .is_some_and(|sr| next.range_has_step(env, pi, &sr)))
     }
 
     /// Stage 3: leg order (thesis `CheckLegsOrder`), measured along the

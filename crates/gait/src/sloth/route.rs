@@ -482,6 +482,23 @@ impl Sloth {
         if sr.retreat && !closed_up {
             return false;
         }
+        // Goal mode, tail first down a trunk (the transfer done), a trailing
+        // fore limb retreats only where no other limb has a forward step: a
+        // retreat unlocks a stance every limb is stuck in, and where one has a
+        // step the retreat only takes the fore limbs back up. branch_trunk at
+        // 100.1°, 0.2 m: all four limbs on the trunk at 37.8 s, RF's search
+        // failed and it retreated 0.1 m up the trunk (3.49 → 3.59 m) where
+        // RH had a step down; from 52 s the limbs circled 2.8–3.6 m up to the
+        // time limit (main at 100.3, 127.7, 130.3, 158.4° the same end).
+        if !self.wander
+            && self.dir < 0.0
+            && self.transfer.is_none()
+            && slothsim_rig::Limb::ALL[li].is_fore()
+            && env.scene().support(g.support).kind == SupportKind::Trunk
+            && (0..4).any(|lj| lj != li && self.has_step(env, lj))
+        {
+            return false;
+        }
         let neighbour =
             u16::try_from(env.adjacency.neighbours(g.support).len()).unwrap_or(u16::MAX - 1);
         // transfer_to_branch, a hind limb below its partner on the trunk

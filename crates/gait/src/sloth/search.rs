@@ -378,7 +378,7 @@ impl Sloth {
 
     /// This sloth once the given limbs hold the given grips: the body at
     /// those grips (formulas 6, 7) and the chain roots it implies.
-    fn after_steps(
+    pub(super) fn after_steps(
         &self,
         env: &LocoView<'_>,
         steps: impl IntoIterator<Item = (usize, Grip)>,
@@ -425,7 +425,7 @@ impl Sloth {
 
     /// Whether limb `li` has any candidate passing the cheap checks and the
     /// reach check on its support or an admissible neighbour (no traces).
-    fn has_step(&self, env: &LocoView<'_>, li: usize) -> bool {
+    pub(super) fn has_step(&self, env: &LocoView<'_>, li: usize) -> bool {
         let g = self.limbs[li].grip;
         let scan = |sr: &Search| self.range_has_step(env, li, sr);
         if scan(&self.own_search(env, li)) {
