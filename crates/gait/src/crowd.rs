@@ -330,6 +330,52 @@ impl CrowdGrid {
         false
     }
 
+    /// [`CrowdGrid::blocked`] for a grip moving from `from` to `p`: only
+    /// the points within the clearance of `p` that `p` is not farther from
+    /// than `from` is block it. A grip already within another sloth's
+    /// clearance may so step away from its points, never toward them; a
+    /// grip outside every clearance is blocked as by [`CrowdGrid::blocked`].
+    pub fn blocked_from(&self, me: u32, from: Vec3, p: Vec3) -> bool {
+        if self.entries.is_empty() || !p.is_finite() {
+            return false;
+        }
+        if !from.is_finite() {
+            return self.blocked(me, p);
+        }
+        let inv = 1.0 / self.cell;
+        let c = cell_of(p, inv);
+        let r2 = self.clearance * self.clearance;
+        for dz in -1..=1 {
+            for dy in -1..=1 {
+                for dx in -1..=1 {
+                    let s = self.slot(c + IVec3::new(dx, dy, dz));
+                    let (s, e) = (self.starts[s] as usize, self.starts[s + 1] as usize);
+                    for &(owner, q) in &self.entries[s..e] {
+                        if owner != me {
+                            let d2 = q.distance_squared(p);
+                            if d2 < r2 && d2 <= q.distance_squared(from) {
+                                return true;
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        false
+    }
+
+    /// Brute-force reference for [`CrowdGrid::blocked_from`] (tests).
+    pub fn blocked_from_brute_force(&self, me: u32, from: Vec3, p: Vec3) -> bool {
+        if !from.is_finite() {
+            return self.blocked_brute_force(me, p);
+        }
+        let r2 = self.clearance * self.clearance;
+        self.entries.iter().any(|&(o, q)| {
+            let d2 = q.distance_squared(p);
+            o != me && d2 < r2 && d2 <= q.distance_squared(from)
+        })
+    }
+
     /// Brute-force reference for [`CrowdGrid::blocked`] (tests).
     pub fn blocked_brute_force(&self, me: u32, p: Vec3) -> bool {
         let r2 = self.clearance * self.clearance;
@@ -356,6 +402,31 @@ mod tests {
             for &(me, x, y, z) in &probes {
                 let p = Vec3::new(x, y, z);
                 prop_assert_eq!(g.blocked(me, p), g.blocked_brute_force(me, p));
+            }
+        }
+
+        /// [`CrowdGrid::blocked_from`] matches its brute force, blocks no
+        /// more than [`CrowdGrid::blocked`], and as much where `from` lies
+        /// outside every clearance.
+        #[test]
+        fn blocked_from_matches_brute_force(
+            pts in prop::collection::vec((0u32..20, -1.0f32..1.0, -1.0f32..1.0, -1.0f32..1.0), 0..100),
+            probes in prop::collection::vec(
+                (0u32..20, -1.2f32..1.2, -1.2f32..1.2, -1.2f32..1.2, -0.2f32..0.2, -0.2f32..0.2, -0.2f32..0.2),
+                1..50,
+            ),
+        ) {
+            let mut g = CrowdGrid::new(0.3);
+            g.rebuild(pts.iter().map(|&(o, x, y, z)| (o, Vec3::new(x, y, z))));
+            for &(me, x, y, z, dx, dy, dz) in &probes {
+                let from = Vec3::new(x, y, z);
+                let p = from + Vec3::new(dx, dy, dz);
+                let b = g.blocked_from(me, from, p);
+                prop_assert_eq!(b, g.blocked_from_brute_force(me, from, p));
+                prop_assert!(!b || g.blocked(me, p));
+                if !g.blocked(me, from) {
+                    prop_assert_eq!(b, g.blocked(me, p));
+                }
             }
         }
     }

@@ -692,10 +692,29 @@ impl Sloth {
     }
 
     /// Stage 5: the grip (and the hind pair's partner's) within another
-    /// sloth's clearance (their bodies and grips of the previous tick).
+    /// sloth's clearance (their bodies and grips of the previous tick). A
+    /// wanderer's grip may step away from points whose clearance its grip
+    /// is already within ([`Sloth::crowd_blocked`]).
     fn crowded(&self, env: &LocoView<'_>, p: &Placement) -> bool {
+        self.crowd_blocked(env, p.cur, p.grip)
+            || p.pair
+                .is_some_and(|(pi, p2, _)| self.crowd_blocked(env, self.limbs[pi].grip.point, p2))
+    }
+
+    /// Whether a grip moving from `from` to `to` comes within another
+    /// sloth's clearance. Goal mode: any point of theirs within it blocks
+    /// ([`CrowdGrid::blocked`]). A wanderer: only those `to` is no farther
+    /// from than `from` ([`CrowdGrid::blocked_from`]), so a grip already
+    /// within their clearance (a sloth behind it walked in: traced in the
+    /// 5,000 × 300 s crowd, a follower's head 2–8 cm from a stopped
+    /// sloth's body) may step away from them, never toward them.
+    pub(super) fn crowd_blocked(&self, env: &LocoView<'_>, from: Vec3, to: Vec3) -> bool {
         env.crowd.is_some_and(|g| {
-            g.blocked(self.id, p.grip) || p.pair.is_some_and(|(_, p2, _)| g.blocked(self.id, p2))
+            if self.wander {
+                g.blocked_from(self.id, from, to)
+            } else {
+                g.blocked(self.id, to)
+            }
         })
     }
 

@@ -520,7 +520,7 @@ impl Sloth {
                     if apart && grip.distance(same_side) < TURN_SIDE_APART_M {
                         return None;
                     }
-                    if env.crowd.is_some_and(|g| g.blocked(self.id, grip)) {
+                    if self.crowd_blocked(env, self.limbs[li].grip.point, grip) {
                         return None;
                     }
                     let handover = done && self.hands_over(tr, li, grip, out);
@@ -596,6 +596,62 @@ mod tests {
     use super::super::test_util::{preset_sloth, xorshift};
     use super::super::{Status, StuckCause};
     use super::*;
+
+    /// A wanderer turning around with a sloth walked into it from behind
+    /// (a copy of its own points moved back along its heading by less than
+    /// the clearance, and aside at random: every grip within that sloth's
+    /// clearance) has turning steps whose grips move away from every point
+    /// of that sloth they are within the clearance of, and none toward one;
+    /// some of its steps lie within that clearance (the plain clearance
+    /// refuses those: without the rule all 180 steps found lie outside it).
+    /// Goal mode keeps the plain clearance.
+    #[test]
+    fn a_boxed_wanderers_turn_steps_away_from_a_sloth_in_its_clearance() {
+        let (env, base) = preset_sloth(PresetKind::BranchEnd);
+        let clearance = 0.3;
+        let mut rnd = xorshift(25);
+        let (mut inside, mut cases) = (0, 0);
+        for case in 0..40u32 {
+            let mut sloth = base;
+            sloth.wander = case % 4 != 0;
+            sloth.id = case;
+            sloth.start_turn(false);
+            let tr = sloth.turn.unwrap();
+            let back = -(sloth.body_rot * Vec3::Z);
+            let aside = sloth.body_rot * Vec3::X;
+            let shift = back * (0.05 + 0.2 * rnd()) + aside * (0.1 * rnd() - 0.05);
+            let other = crate::crowd_points(env.view().rig, &sloth).map(|p| p + shift);
+            let mut grid = crate::CrowdGrid::new(clearance);
+            grid.rebuild(other.iter().map(|&p| (1000, p)));
+            let view = env.view_with(Some(&grid));
+            for li in 0..4 {
+                let from = sloth.limbs[li].grip.point;
+                assert!(
+                    other.iter().any(|q| q.distance(from) < clearance),
+                    "case {case}"
+                );
+                for inc in [TURN_STEP, TURN_STEP * 0.5, 0.0] {
+                    let Some(step) = sloth.turn_step_for(&view, &tr, li, inc, false, &mut None)
+                    else {
+                        continue;
+                    };
+                    cases += 1;
+                    for q in other {
+                        let d = q.distance(step.grip);
+                        if d < clearance {
+                            assert!(sloth.wander, "case {case}: goal mode keeps the clearance");
+                            inside += 1;
+                            assert!(d > q.distance(from), "case {case} limb {li}: toward {q}");
+                        }
+                    }
+                }
+            }
+        }
+        assert!(
+            cases > 0 && inside > 0,
+            "{cases} steps, {inside} within the clearance"
+        );
+    }
 
     /// A turn that stops (its steps refused [`TURN_MAX_IDLE`] times in a
     /// row) is tried the other way round when a wanderer resumes, from the
