@@ -405,7 +405,7 @@ impl Sloth {
         }) else {
             return false;
         };
-        if !self.bodies_clear_but_end(env, &stances) {
+        if !self.bodies_clear(env, &stances, true) {
             return false;
         }
         let scene = env.scene();
@@ -751,7 +751,7 @@ impl Sloth {
         let Some(stances) = stances_in_band(env, stance) else {
             return false;
         };
-        self.bodies_clear(env, &stances)
+        self.bodies_clear(env, &stances, false)
             && !self.arc_body_penetrates(env, &stance)
             && self.stances_hold(env, &stances)
     }
@@ -805,12 +805,20 @@ impl Sloth {
     /// root within its reach band of its grip, and the bodies clear of the
     /// supports.
     fn stances_clear(&self, env: &LocoView<'_>, stances: &[StanceCheck]) -> bool {
-        stances.iter().all(|st| in_band(env, st)) && self.bodies_clear(env, stances)
+        stances.iter().all(|st| in_band(env, st)) && self.bodies_clear(env, stances, false)
     }
 
     /// The part of [`Self::stances_clear`] after the reach bands: the
-    /// stances' bodies clear of the supports.
-    fn bodies_clear(&self, env: &LocoView<'_>, stances: &[StanceCheck]) -> bool {
+    /// stances' bodies clear of the supports. `end_body_tested`: the last
+    /// stance's (the end's) body is already tested clear and is not tested
+    /// again (the same answer: `bodies_penetrate` is an `any` over the
+    /// bodies, see [`stances_in_band_end_first`]).
+    fn bodies_clear(
+        &self,
+        env: &LocoView<'_>,
+        stances: &[StanceCheck],
+        end_body_tested: bool,
+    ) -> bool {
         // Walking a trunk, the drawn body faces it from a side that lags
         // the grips' mean by a few frames: each stance's body is checked
         // from where the body is now and from where it settles (the grips'
@@ -827,27 +835,8 @@ impl Sloth {
             })
         };
         let n = stances.len();
-        !(self.bodies_penetrate(env, &bodies(BodySide::Body)[..n])
-            || (trunk_walk && self.bodies_penetrate(env, &bodies(BodySide::Grips)[..n])))
-    }
-
-    /// [`Self::bodies_clear`] for stances whose last (the end) has its body
-    /// (`BodySide::Body`) already tested clear: that body is not tested
-    /// again (the same answer: `bodies_penetrate` is an `any` over the
-    /// bodies, see [`stances_in_band_end_first`]).
-    fn bodies_clear_but_end(&self, env: &LocoView<'_>, stances: &[StanceCheck]) -> bool {
-        let trunk_walk = self.transfer.is_none() && self.fore_on_trunk(env);
-        let n = stances.len();
-        let bodies = |side: BodySide| -> [(Vec3, Quat); MAX_STANCES] {
-            std::array::from_fn(|k| match (stances.get(k), side) {
-                (None, _) => (Vec3::ZERO, Quat::IDENTITY),
-                (Some(st), BodySide::Body) => (st.placed.pos, st.placed.rot),
-                (Some(st), _) => {
-                    self.body_for_targets(env, &st.placed.grips, st.placed.offset, side)
-                }
-            })
-        };
-        !(self.bodies_penetrate(env, &bodies(BodySide::Body)[..n - 1])
+        let n_body = n - usize::from(end_body_tested && n > 0);
+        !(self.bodies_penetrate(env, &bodies(BodySide::Body)[..n_body])
             || (trunk_walk && self.bodies_penetrate(env, &bodies(BodySide::Grips)[..n])))
     }
 
@@ -1158,7 +1147,7 @@ mod tests {
     }
 
     /// The end stance first ([`stances_in_band_end_first`], its body tested
-    /// as soon as it is placed, then [`Sloth::bodies_clear_but_end`]) against
+    /// as soon as it is placed, then [`Sloth::bodies_clear`] with the end's body tested) against
     /// the arc's order ([`stances_in_band`], then [`Sloth::bodies_clear`]):
     /// on every preset, free and steady profiles, for sloths as they walk
     /// and each holding limb made to step to random grips (10 cm back to
@@ -1195,8 +1184,8 @@ mod tests {
                         let new = stances_in_band_end_first(view, stance_at, |st| {
                             !sloth.body_penetrates(view, st.placed.pos, st.placed.rot)
                         });
-                        let old_ok = old.is_some_and(|st| sloth.bodies_clear(view, &st));
-                        let new_ok = new.is_some_and(|st| sloth.bodies_clear_but_end(view, &st));
+                        let old_ok = old.is_some_and(|st| sloth.bodies_clear(view, &st, false));
+                        let new_ok = new.is_some_and(|st| sloth.bodies_clear(view, &st, true));
                         assert_eq!(
                             old_ok,
                             new_ok,
