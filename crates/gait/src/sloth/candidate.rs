@@ -453,7 +453,9 @@ impl Sloth {
     fn following_hind_past_lead(&self, env: &LocoView<'_>, p: &Placement) -> bool {
         let cfg = env.cfg;
         let limb = p.limb;
-        if !(p.transfer_step && !self.wander && self.dir > 0.0 && !limb.is_fore()) {
+        let head_first_hind_transfer =
+            p.transfer_step && !self.wander && self.dir > 0.0 && !limb.is_fore();
+        if !head_first_hind_transfer {
             return false;
         }
         let partner = self.limbs[limb.opposite().index()].grip;
