@@ -307,6 +307,25 @@ impl CrowdGrid {
 
     /// Whether a point of a sloth other than `me` lies within the clearance of `p`.
     pub fn blocked(&self, me: u32, p: Vec3) -> bool {
+        self.any_within(me, p, |_, _| true)
+    }
+
+    /// [`CrowdGrid::blocked`] for a grip moving from `from` to `p`: only
+    /// the points within the clearance of `p` that `p` is not farther from
+    /// than `from` is block it. A grip already within another sloth's
+    /// clearance may so step away from its points, never toward them; a
+    /// grip outside every clearance is blocked as by [`CrowdGrid::blocked`].
+    pub fn blocked_from(&self, me: u32, from: Vec3, p: Vec3) -> bool {
+        if !from.is_finite() {
+            return self.blocked(me, p);
+        }
+        self.any_within(me, p, |q, d2| d2 <= q.distance_squared(from))
+    }
+
+    /// Whether a point `q` of a sloth other than `me` within the clearance
+    /// of `p` has `counts(q, |q − p|²)`.
+    #[inline]
+    fn any_within(&self, me: u32, p: Vec3, counts: impl Fn(Vec3, f32) -> bool) -> bool {
         if self.entries.is_empty() || !p.is_finite() {
             return false;
         }
@@ -320,40 +339,9 @@ impl CrowdGrid {
                     let s = self.slot(c + IVec3::new(dx, dy, dz));
                     let (s, e) = (self.starts[s] as usize, self.starts[s + 1] as usize);
                     for &(owner, q) in &self.entries[s..e] {
-                        if owner != me && q.distance_squared(p) < r2 {
-                            return true;
-                        }
-                    }
-                }
-            }
-        }
-        false
-    }
-
-    /// [`CrowdGrid::blocked`] for a grip moving from `from` to `p`: only
-    /// the points within the clearance of `p` that `p` is not farther from
-    /// than `from` is block it. A grip already within another sloth's
-    /// clearance may so step away from its points, never toward them; a
-    /// grip outside every clearance is blocked as by [`CrowdGrid::blocked`].
-    pub fn blocked_from(&self, me: u32, from: Vec3, p: Vec3) -> bool {
-        if self.entries.is_empty() || !p.is_finite() {
-            return false;
-        }
-        if !from.is_finite() {
-            return self.blocked(me, p);
-        }
-        let inv = 1.0 / self.cell;
-        let c = cell_of(p, inv);
-        let r2 = self.clearance * self.clearance;
-        for dz in -1..=1 {
-            for dy in -1..=1 {
-                for dx in -1..=1 {
-                    let s = self.slot(c + IVec3::new(dx, dy, dz));
-                    let (s, e) = (self.starts[s] as usize, self.starts[s + 1] as usize);
-                    for &(owner, q) in &self.entries[s..e] {
                         if owner != me {
                             let d2 = q.distance_squared(p);
-                            if d2 < r2 && d2 <= q.distance_squared(from) {
+                            if d2 < r2 && counts(q, d2) {
                                 return true;
                             }
                         }
