@@ -570,8 +570,11 @@ fn print_summary(s: &CrowdStats, wall_s: f64, out: &Path) {
         s.nan_count
     );
     println!(
-        "stuck sloths {} (no step in the last 10 s), turn-backs {}",
-        s.stuck_sloths, s.turn_backs
+        "stuck sloths {} (no step in the last 10 s), stalled in place {} ({}+ turn-backs without travelling a step), turn-backs {}",
+        s.stuck_sloths,
+        s.stuck.stalled_in_place.count,
+        slothsim_sim::crowd::STALLED_TURNS,
+        s.turn_backs
     );
     let r = &s.roaming;
     println!(

@@ -69,6 +69,11 @@ fn crowd_of_300_keeps_moving_for_40_s() {
         })
         .sum();
     assert_eq!(counted, n, "{stuck}");
+    // Stalled in place (8+ turn-backs without travel), stuck or not: listed apart.
+    let stalled = &stuck["stalled_in_place"];
+    let count = stalled["count"].as_u64().unwrap();
+    assert!(count <= 300, "{stalled}");
+    assert!(stalled["example_ids"].as_array().unwrap().len() as u64 == count.min(10));
 
     // The judge's limits held meanwhile.
     assert_eq!(a["nan_count"], 0);

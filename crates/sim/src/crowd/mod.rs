@@ -32,8 +32,8 @@ pub use checkpoint::{CHECKPOINT_VERSION, CheckpointInfo};
 pub use hash::{scene_hash, state_hash_of};
 pub use spawn::{SLOTHS_PER_TREE, forest_for};
 pub use stats::{
-    CauseCount, CrowdStats, Observer, Percentiles, Roaming, STUCK_AFTER_S, StagesMs, StuckReport,
-    WorstSloths,
+    CauseCount, CrowdStats, Observer, Percentiles, Roaming, STALLED_TURNS, STUCK_AFTER_S, StagesMs,
+    StuckReport, WorstSloths,
 };
 
 use spawn::SLOT_SPACING_M;

@@ -17,6 +17,14 @@ use crate::world::{Locomotion, SlothId, SlothState};
 /// A sloth that has not completed a step for this long at the end of a run is stuck.
 pub const STUCK_AFTER_S: f32 = 10.0;
 
+/// A wanderer that has turned back this many times since its body last
+/// travelled a max step (`Sloth::stall_from`) is *stalled in place* at the
+/// end of a run, whether or not it still steps: the stuck count's step
+/// clock ([`STUCK_AFTER_S`]) misses the sloths that re-grip a few
+/// centimetres between turn-backs (traced in the 5,000-sloth crowds: wanderers
+/// straddling two branches at a junction, about 40 s or more in place).
+pub const STALLED_TURNS: u8 = 8;
+
 /// The judge of a wandering sloth: the limits, no time limit (a
 /// wanderer has no goal to reach in time).
 pub(super) fn crowd_judge() -> Judge {
@@ -205,6 +213,8 @@ pub struct StuckReport {
     pub share: f32,
     /// Per cause (every cause listed, zero counts included).
     pub by_cause: BTreeMap<&'static str, CauseCount>,
+    /// Wanderers stalled in place ([`STALLED_TURNS`]), stuck or not.
+    pub stalled_in_place: CauseCount,
 }
 
 /// Stuck sloths of one cause.
@@ -223,8 +233,9 @@ pub const CAUSE_EXAMPLES: usize = 10;
 pub const SEARCHING: &str = "searching";
 
 impl StuckReport {
-    /// Of `(id, cause)` for every stuck sloth, in id order, among `sloths`.
-    pub fn of(stuck: &[(u32, Option<StuckCause>)], sloths: u32) -> Self {
+    /// Of `(id, cause)` for every stuck sloth and the ids of the sloths
+    /// stalled in place, in id order, among `sloths`.
+    pub fn of(stuck: &[(u32, Option<StuckCause>)], stalled: &[u32], sloths: u32) -> Self {
         let mut by_cause: BTreeMap<&'static str, CauseCount> = StuckCause::ALL
             .iter()
             .map(|c| c.name())
@@ -244,6 +255,10 @@ impl StuckReport {
             sloths: stuck.len() as u32,
             share: stuck.len() as f32 / sloths.max(1) as f32,
             by_cause,
+            stalled_in_place: CauseCount {
+                count: stalled.len() as u32,
+                example_ids: stalled.iter().copied().take(CAUSE_EXAMPLES).collect(),
+            },
         }
     }
 }
@@ -370,6 +385,7 @@ impl Crowd {
             GaitReport,
             bool,
             Option<StuckCause>,
+            bool,
         );
         let mut rows: Vec<Row> = q
             .iter(&self.world)
@@ -383,6 +399,7 @@ impl Crowd {
                     o.stats.finish(),
                     stuck,
                     s.0.stuck_cause,
+                    s.0.wander && s.0.stall_from.is_some_and(|(_, n)| n >= STALLED_TURNS),
                 )
             })
             .collect();
@@ -392,7 +409,8 @@ impl Crowd {
         let gait = GaitReport::aggregate(rows.iter().map(|r| &r.4));
         let stuck_causes: Vec<(u32, Option<StuckCause>)> =
             rows.iter().filter(|r| r.5).map(|r| (r.0, r.6)).collect();
-        let stuck = StuckReport::of(&stuck_causes, rows.len() as u32);
+        let stalled: Vec<u32> = rows.iter().filter(|r| r.7).map(|r| r.0).collect();
+        let stuck = StuckReport::of(&stuck_causes, &stalled, rows.len() as u32);
         let stuck_ids: Vec<u32> = stuck_causes.iter().map(|r| r.0).collect();
         let roaming = self.roaming();
         let reports = || rows.iter().map(|r| (r.0, &r.3));
@@ -479,5 +497,34 @@ impl Crowd {
         r.supports_per_sloth_mean = per_sloth as f32 / sloths.max(1) as f32;
         r.trunk_frame_share = trunk_frames as f32 / frames.max(1) as f32;
         r
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every stuck sloth is counted under its cause (`searching` where the
+    /// search has not given up), the stalled ones apart, stuck or not, each
+    /// list with its lowest [`CAUSE_EXAMPLES`] ids.
+    #[test]
+    fn stuck_report_counts_causes_and_stalled_sloths() {
+        let stuck: Vec<(u32, Option<StuckCause>)> = (0..30)
+            .map(|id| (id, (id % 3 != 0).then_some(StuckCause::NoGrip)))
+            .collect();
+        let stalled: Vec<u32> = (5..50).step_by(2).collect();
+        let r = StuckReport::of(&stuck, &stalled, 1000);
+        assert_eq!(r.sloths, 30);
+        assert!((r.share - 0.03).abs() < 1e-6);
+        assert_eq!(r.by_cause[SEARCHING].count, 10);
+        assert_eq!(r.by_cause["no_grip"].count, 20);
+        assert_eq!(
+            r.by_cause["no_grip"].example_ids,
+            [1, 2, 4, 5, 7, 8, 10, 11, 13, 14]
+        );
+        let counted: u32 = r.by_cause.values().map(|c| c.count).sum();
+        assert_eq!(counted, 30);
+        assert_eq!(r.stalled_in_place.count, stalled.len() as u32);
+        assert_eq!(r.stalled_in_place.example_ids, stalled[..CAUSE_EXAMPLES]);
     }
 }
