@@ -104,6 +104,17 @@ struct Placement {
 }
 
 impl Placement {
+    /// The grip the limb would hold at candidate `at` (untraced).
+    fn grip_at(&self, at: &CandidateAt) -> Grip {
+        Grip {
+            point: self.grip,
+            normal: self.out,
+            support: at.support,
+            u: at.u,
+            sdir: at.sdir,
+        }
+    }
+
     /// The trace that confirms the grip, and what the search keeps of it.
     fn trace(
         &self,
@@ -475,14 +486,7 @@ impl Sloth {
     /// one of their steps it has one (0.2 m 98.604°, 104.9°, 150.3° pass so
     /// on main and failed with the step held back; see docs/scenarios.md).
     fn partner_follows(&self, env: &LocoView<'_>, at: &CandidateAt, p: &Placement) -> bool {
-        let grip = Grip {
-            point: p.grip,
-            normal: p.out,
-            support: at.support,
-            u: at.u,
-            sdir: at.sdir,
-        };
-        let next = self.after_steps(env, [(at.limb, grip)]);
+        let next = self.after_steps(env, [(at.limb, p.grip_at(at))]);
         let pi = p.limb.opposite().index();
         !next.has_step(env, pi)
             || (next.may_follow(env, pi, at.support)
@@ -754,14 +758,7 @@ impl Sloth {
         // Held only with the next limb to lift off in the air by the
         // landing: a plain step commits that limb's step.
         let lift = if !reachable && at.may_commit_lift && self.is_plain(at, p) {
-            let grip = Grip {
-                point: p.grip,
-                normal: p.out,
-                support: sid,
-                u: at.u,
-                sdir: at.sdir,
-            };
-            self.planned_lift(env, li, grip, checks)
+            self.planned_lift(env, li, p.grip_at(at), checks)
         } else {
             None
         };
