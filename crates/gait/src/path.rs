@@ -38,6 +38,43 @@ pub fn axis_at(s: &Support, u: f32) -> AxisPoint {
     unreachable!("supports have at least one segment")
 }
 
+/// [`axis_at`] from a support's segment arcs ([`segment_arcs`]: each segment's
+/// start arc length and length, as `axis_at` sums and measures them): the
+/// segment found by a binary search instead of a walk that measures every
+/// segment before it. The same segment and the same operations on the same
+/// values, so the same bits (tested: `axis_at_arcs_matches_axis_at`).
+pub(crate) fn axis_at_arcs(s: &Support, arcs: &[(f32, f32)], u: f32) -> AxisPoint {
+    let last = s.nodes.len() - 2;
+    // `axis_at` stops at the first `i` with `u <= acc + len` (or the last):
+    // `acc + len` is the next segment's `acc` (the same sum), non-decreasing
+    // in `i`, so the segments before it are a prefix (a NaN `u` passes none).
+    let i = arcs[..last].partition_point(|&(acc, len)| !(u <= acc + len));
+    let (a, b) = (s.nodes[i], s.nodes[i + 1]);
+    let (acc, len) = arcs[i];
+    let t = ((u - acc) / len).clamp(0.0, 1.0);
+    AxisPoint {
+        u: acc + t * len,
+        point: a.lerp(b, t),
+        tangent: (b - a) / len,
+        radius: s.radii[i] + (s.radii[i + 1] - s.radii[i]) * t,
+    }
+}
+
+/// Each axis segment's start arc length and length, summed and measured as
+/// [`axis_at`] does (for [`axis_at_arcs`]).
+fn segment_arcs(s: &Support) -> Vec<(f32, f32)> {
+    let mut acc = 0.0f32;
+    s.nodes
+        .windows(2)
+        .map(|w| {
+            let len = w[0].distance(w[1]);
+            let start = acc;
+            acc += len;
+            (start, len)
+        })
+        .collect()
+}
+
 /// The closest axis point to `p`.
 pub fn project(s: &Support, p: Vec3) -> AxisPoint {
     let mut best = (f32::INFINITY, 0.0f32);
@@ -80,6 +117,9 @@ pub struct Adjacency {
     bounds: Vec<(Vec3, Vec3)>,
     /// Per support, bounds of its axis segments in runs of [`SEGMENT_CHUNK`].
     chunks: Vec<Vec<SegmentChunk>>,
+    /// Per support, each axis segment's start arc length and length
+    /// ([`segment_arcs`]).
+    arcs: Vec<Vec<(f32, f32)>>,
 }
 
 /// Axis segments per [`SegmentChunk`].
@@ -155,6 +195,7 @@ impl Adjacency {
             lists[s.id.0 as usize] = near;
         }
         let chunks = scene.supports().iter().map(segment_chunks).collect();
+        let arcs = scene.supports().iter().map(segment_arcs).collect();
         let bounds = scene
             .supports()
             .iter()
@@ -169,6 +210,18 @@ impl Adjacency {
             lists,
             bounds,
             chunks,
+            arcs,
+        }
+    }
+
+    /// [`axis_at`] on support `s` (this graph's forest), from its segment
+    /// arcs where they are known (the same bits: [`axis_at_arcs`]).
+    pub(crate) fn axis_at(&self, s: &Support, u: f32) -> AxisPoint {
+        match self.arcs.get(s.id.0 as usize) {
+            Some(arcs) if !arcs.is_empty() && arcs.len() + 1 == s.nodes.len() => {
+                axis_at_arcs(s, arcs, u)
+            }
+            _ => axis_at(s, u),
         }
     }
 
@@ -190,5 +243,77 @@ impl Adjacency {
     /// Neighbours of a support, sorted by id.
     pub fn neighbours(&self, id: SupportId) -> &[SupportId] {
         self.lists.get(id.0 as usize).map_or(&[], |v| v.as_slice())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn bits(a: AxisPoint) -> [u32; 8] {
+        [
+            a.u.to_bits(),
+            a.point.x.to_bits(),
+            a.point.y.to_bits(),
+            a.point.z.to_bits(),
+            a.tangent.x.to_bits(),
+            a.tangent.y.to_bits(),
+            a.tangent.z.to_bits(),
+            a.radius.to_bits(),
+        ]
+    }
+
+    /// [`axis_at_arcs`] gives [`axis_at`]'s bits: random polylines (2–40
+    /// nodes, some segments very short or of zero length), arc lengths every
+    /// millimetre and at random from before the first node to past the last,
+    /// each segment's end exactly, infinities and NaN.
+    #[test]
+    fn axis_at_arcs_matches_axis_at() {
+        let mut s = 0x9e37_79b9_7f4a_7c15u64;
+        let mut rnd = move || {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            (s >> 40) as f32 / (1u64 << 24) as f32
+        };
+        let mut checked = 0u64;
+        for case in 0..300 {
+            let n = 2 + (rnd() * 39.0) as usize;
+            let mut p = Vec3::new(rnd() * 200.0 - 100.0, rnd() * 30.0, rnd() * 200.0 - 100.0);
+            let (mut nodes, mut radii) = (Vec::new(), Vec::new());
+            for _ in 0..n {
+                nodes.push(p);
+                radii.push(0.01 + rnd() * 0.4);
+                let step = match case % 5 {
+                    0 if rnd() < 0.2 => 0.0,
+                    1 if rnd() < 0.3 => 1e-6,
+                    _ => 0.05 + rnd() * 0.8,
+                };
+                p += Vec3::new(rnd() - 0.5, rnd() - 0.3, rnd() - 0.5) * step;
+            }
+            let sup = Support::new(nodes, radii);
+            let arcs = segment_arcs(&sup);
+            let len = sup.length();
+            let mut us: Vec<f32> = vec![f32::NAN, f32::INFINITY, f32::NEG_INFINITY, 0.0, -0.0, len];
+            us.extend(
+                arcs.iter()
+                    .flat_map(|&(acc, l)| [acc, acc + l, (acc + l).next_up()]),
+            );
+            let mut u = -0.5f32;
+            while u < len + 0.5 {
+                us.push(u);
+                u += 0.001;
+            }
+            us.extend((0..200).map(|_| rnd() * (len + 1.0) - 0.5));
+            for &u in &us {
+                assert_eq!(
+                    bits(axis_at_arcs(&sup, &arcs, u)),
+                    bits(axis_at(&sup, u)),
+                    "case {case} u {u}"
+                );
+                checked += 1;
+            }
+        }
+        assert!(checked > 100_000, "{checked}");
     }
 }

@@ -10,7 +10,7 @@ use glam::{Quat, Vec3};
 use slothsim_rig::Limb;
 use slothsim_scene::{LineTrace, SupportId, SupportKind, TraceRequest};
 
-use crate::path::{AxisPoint, axis_at};
+use crate::path::AxisPoint;
 
 use super::body::{grip_out, support_frame};
 use super::route::{SIDE_STEP_AXIAL_SLACK, SideStep};
@@ -172,7 +172,7 @@ impl Sloth {
         } else {
             at
         };
-        let a = axis_at(env.scene().support(at.support), at.u);
+        let a = env.adjacency.axis_at(env.scene().support(at.support), at.u);
         if self.surely_too_far(env, at, &a) {
             return None;
         }
@@ -779,6 +779,7 @@ impl Sloth {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::path::axis_at;
     use crate::sloth::test_util::{walk_presets, xorshift};
 
     /// [`Sloth::surely_too_far`] against the placement it spares: on every
