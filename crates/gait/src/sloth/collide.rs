@@ -29,7 +29,18 @@ fn torso_penetrates(
     torso: [Vec3; 2],
     depth: f32,
 ) -> bool {
-    let bound = TorsoBound::new(torso);
+    torso_penetrates_bounded(s, chunks, torso, &TorsoBound::new(torso), depth)
+}
+
+/// [`torso_penetrates`] with the torso's bound `bound` (`TorsoBound::new(torso)`)
+/// made once by the caller for every support it tests.
+fn torso_penetrates_bounded(
+    s: &slothsim_scene::Support,
+    chunks: &[SegmentChunk],
+    torso: [Vec3; 2],
+    bound: &TorsoBound,
+    depth: f32,
+) -> bool {
     let segments = s.nodes.len().saturating_sub(1);
     let hit = |i: usize| bound.may_exceed(s, i, depth) && segment_depth(s, i, torso) > depth;
     if chunks.len() != segments.div_ceil(SEGMENT_CHUNK) {
@@ -252,17 +263,33 @@ pub(super) fn torso_box_meets(
 impl Sloth {
     /// Whether a body at (`pos`, `rot`) would enter a support near the grips
     /// (e.g. walking a branch into its trunk).
+    ///
+    /// Each support is tested once (a held support is also its held
+    /// neighbour's neighbour: [`Self::near_supports`] names it again; past
+    /// `seen`'s room a support may be tested twice), with the torso's bound
+    /// made once: the same `any` over the same pure tests.
     pub(super) fn body_penetrates(&self, env: &LocoView<'_>, pos: Vec3, rot: Quat) -> bool {
         let scene = env.scene();
         let torso = [
             pos + rot * env.rig.torso_ms[0],
             pos + rot * env.rig.torso_ms[1],
         ];
+        let bound = TorsoBound::new(torso);
+        let mut seen = [SupportId(u32::MAX); 32];
+        let mut n_seen = 0;
         self.near_supports(env).any(|id| {
-            torso_penetrates(
+            if seen[..n_seen].contains(&id) {
+                return false;
+            }
+            if n_seen < seen.len() {
+                seen[n_seen] = id;
+                n_seen += 1;
+            }
+            torso_penetrates_bounded(
                 scene.support(id),
                 env.adjacency.segment_chunks(id),
                 torso,
+                &bound,
                 STANCE_MAX_PENETRATION,
             )
         })
