@@ -94,6 +94,37 @@ fn cell_of(p: Vec3, inv_cell: f32) -> IVec3 {
     IVec3::new(floor_i32(q.x), floor_i32(q.y), floor_i32(q.z))
 }
 
+/// Margin of [`cell_gaps`] (in cells): far above the rounding of a point's
+/// cell coordinates (`p / cell`, a few 1e-5 cells at forest scale).
+const CELL_GAP_SLACK: f32 = 0.01;
+
+/// For a point at cell coordinates `q` (`p / cell`) in cell `c`, per axis
+/// and per neighbour offset −1, 0, +1: the squared distance from `q` to that
+/// neighbour's slab, less [`CELL_GAP_SLACK`], over the squared reach
+/// `reach` (the clearance in cells, at most 1) with 0.1 % more. A
+/// neighbour cell whose three terms sum above 1 lies farther than the
+/// clearance from the point: a point there has `floor(q' ) ≠ c` on each axis
+/// where its offset is not 0, so it lies at least the gap away along it, and
+/// no point of it passes a `distance² < clearance²` test. Where `q` is not
+/// within its cell (coordinates past `i32`'s range, or rounding at a cell's
+/// edge) every term is 0: every cell walked, as before.
+#[inline]
+fn cell_gaps(q: Vec3, c: IVec3, reach: f32) -> [[f32; 3]; 3] {
+    let f = q - c.as_vec3();
+    let inv_r2 = 1.0 / (reach * reach * 1.002);
+    let axis = |f: f32| -> [f32; 3] {
+        if !(0.0..=1.0).contains(&f) {
+            return [0.0; 3];
+        }
+        let gap = |g: f32| {
+            let g = (g - CELL_GAP_SLACK).max(0.0);
+            g * g * inv_r2
+        };
+        [gap(f), 0.0, gap(1.0 - f)]
+    };
+    [axis(f.x), axis(f.y), axis(f.z)]
+}
+
 fn cell_hash(c: IVec3) -> u32 {
     // Three large primes (Teschner et al. 2003), wrapping.
     (c.x as u32).wrapping_mul(73_856_093)
@@ -332,10 +363,16 @@ impl CrowdGrid {
         let inv = 1.0 / self.cell;
         let c = cell_of(p, inv);
         let r2 = self.clearance * self.clearance;
-        // The cell is at least the clearance, so the 27 cells around `p` cover it.
+        // The cell is at least the clearance, so the 27 cells around `p` cover
+        // it; a cell whose box lies farther than the clearance from `p` holds
+        // no point within it and is not walked (see [`cell_gaps`]).
+        let [gx, gy, gz] = cell_gaps(p * inv, c, self.clearance * inv);
         for dz in -1..=1 {
             for dy in -1..=1 {
                 for dx in -1..=1 {
+                    if gx[(dx + 1) as usize] + gy[(dy + 1) as usize] + gz[(dz + 1) as usize] > 1.0 {
+                        continue;
+                    }
                     let s = self.slot(c + IVec3::new(dx, dy, dz));
                     let (s, e) = (self.starts[s] as usize, self.starts[s + 1] as usize);
                     for &(owner, q) in &self.entries[s..e] {
@@ -415,6 +452,41 @@ mod tests {
                 if !g.blocked(me, from) {
                     prop_assert_eq!(b, g.blocked(me, p));
                 }
+            }
+        }
+    }
+
+    proptest! {
+        /// The cells [`cell_gaps`] leaves out hold no blocking point: probes
+        /// just inside and just outside another sloth's clearance (0.97–1.001
+        /// of it, in any direction), at forest-scale coordinates, for
+        /// clearances below, at and above the smallest cell, answer as the
+        /// brute force ([`CrowdGrid::blocked`] and [`CrowdGrid::blocked_from`]).
+        #[test]
+        fn blocked_at_the_clearance_edge_matches_brute_force(
+            base in (-150.0f32..150.0, -5.0f32..40.0, -150.0f32..150.0),
+            clearance in prop::sample::select(vec![0.02f32, 0.05, 0.1, 0.3, 0.45]),
+            pts in prop::collection::vec((0u32..5, -0.6f32..0.6, -0.6f32..0.6, -0.6f32..0.6), 1..40),
+            probes in prop::collection::vec(
+                (0usize..40, -1.0f32..1.0, -1.0f32..1.0, -1.0f32..1.0, 0.97f32..1.001, 0u32..5),
+                1..60,
+            ),
+        ) {
+            let base = Vec3::new(base.0, base.1, base.2);
+            let pts: Vec<(u32, Vec3)> =
+                pts.iter().map(|&(o, x, y, z)| (o, base + Vec3::new(x, y, z))).collect();
+            let mut g = CrowdGrid::new(clearance);
+            g.rebuild(pts.iter().copied());
+            for &(i, x, y, z, k, me) in &probes {
+                let Some(dir) = Vec3::new(x, y, z).try_normalize() else { continue };
+                let q = pts[i % pts.len()].1;
+                let p = q + dir * (clearance * k);
+                prop_assert_eq!(g.blocked(me, p), g.blocked_brute_force(me, p));
+                let from = p + dir * (clearance * 0.3 * (k - 0.985) * 50.0);
+                prop_assert_eq!(
+                    g.blocked_from(me, from, p),
+                    g.blocked_from_brute_force(me, from, p)
+                );
             }
         }
     }
