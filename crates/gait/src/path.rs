@@ -136,6 +136,35 @@ pub(crate) struct SegmentChunk {
     pub(crate) radius: f32,
     /// Largest support radius at the run's nodes.
     pub(crate) max_radius: f32,
+    /// Each segment's own bound ([`SegmentBound::of`]), in run order (the
+    /// slots past a short last run unused).
+    pub(crate) segs: [SegmentBound; SEGMENT_CHUNK],
+}
+
+/// One axis segment's bounding sphere as the torso tests measure it: its
+/// midpoint, half its length and the larger of its two end radii, made once
+/// per forest instead of at every test (the same values: the same
+/// operations on the same nodes).
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct SegmentBound {
+    /// Midpoint, `(a + b) * 0.5`.
+    pub(crate) mid: Vec3,
+    /// Half the length, `a.distance(b) * 0.5`.
+    pub(crate) half: f32,
+    /// The larger radius of the segment's two nodes.
+    pub(crate) max_radius: f32,
+}
+
+impl SegmentBound {
+    /// Segment `i` of support `s`.
+    pub(crate) fn of(s: &Support, i: usize) -> Self {
+        let (a, b) = (s.nodes[i], s.nodes[i + 1]);
+        SegmentBound {
+            mid: (a + b) * 0.5,
+            half: a.distance(b) * 0.5,
+            max_radius: s.radii[i].max(s.radii[i + 1]),
+        }
+    }
 }
 
 pub(crate) fn segment_chunks(s: &Support) -> Vec<SegmentChunk> {
@@ -159,10 +188,15 @@ pub(crate) fn segment_chunks(s: &Support) -> Vec<SegmentChunk> {
                 .iter()
                 .copied()
                 .fold(0.0, f32::max);
+            let mut segs = [SegmentBound::default(); SEGMENT_CHUNK];
+            for i in run.clone() {
+                segs[i - run.start] = SegmentBound::of(s, i);
+            }
             SegmentChunk {
                 centre,
                 radius,
                 max_radius,
+                segs,
             }
         })
         .collect()

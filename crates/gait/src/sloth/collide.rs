@@ -6,7 +6,7 @@
 use glam::{Quat, Vec3};
 use slothsim_scene::SupportId;
 
-use crate::path::{SEGMENT_CHUNK, SegmentChunk};
+use crate::path::{SEGMENT_CHUNK, SegmentBound, SegmentChunk};
 use crate::rigdata::BODY_RADIUS;
 
 use super::{LocoView, Sloth};
@@ -42,13 +42,16 @@ fn torso_penetrates_bounded(
     depth: f32,
 ) -> bool {
     let segments = s.nodes.len().saturating_sub(1);
-    let hit = |i: usize| bound.may_exceed(s, i, depth) && segment_depth(s, i, torso) > depth;
     if chunks.len() != segments.div_ceil(SEGMENT_CHUNK) {
-        return (0..segments).any(hit);
+        return (0..segments)
+            .any(|i| bound.may_exceed(s, i, depth) && segment_depth(s, i, torso) > depth);
     }
     chunks.iter().enumerate().any(|(k, c)| {
         bound.may_reach_chunk(c, depth)
-            && (k * SEGMENT_CHUNK..((k + 1) * SEGMENT_CHUNK).min(segments)).any(hit)
+            && (k * SEGMENT_CHUNK..((k + 1) * SEGMENT_CHUNK).min(segments)).any(|i| {
+                bound.may_exceed_seg(&c.segs[i - k * SEGMENT_CHUNK], depth)
+                    && segment_depth(s, i, torso) > depth
+            })
     })
 }
 
@@ -94,10 +97,11 @@ fn torsos_penetrate(
             *n = b.may_reach_chunk(c, depth);
         }
         (k * SEGMENT_CHUNK..((k + 1) * SEGMENT_CHUNK).min(segments)).any(|i| {
-            all.may_exceed(s, i, depth)
+            let seg = &c.segs[i - k * SEGMENT_CHUNK];
+            all.may_exceed_seg(seg, depth)
                 && (0..torsos.len()).any(|t| {
                     near[t]
-                        && bounds[t].may_exceed(s, i, depth)
+                        && bounds[t].may_exceed_seg(seg, depth)
                         && segment_depth(s, i, torsos[t]) > depth
                 })
         })
@@ -118,23 +122,21 @@ pub(super) fn torso_penetration(
     let bound = TorsoBound::new(torso);
     let segments = s.nodes.len().saturating_sub(1);
     let mut depth = floor;
-    let run = |range: std::ops::Range<usize>, depth: &mut f32| {
-        for i in range {
-            if bound.may_exceed(s, i, *depth) {
-                *depth = depth.max(segment_depth(s, i, torso));
+    if chunks.len() != segments.div_ceil(SEGMENT_CHUNK) {
+        for i in 0..segments {
+            if bound.may_exceed(s, i, depth) {
+                depth = depth.max(segment_depth(s, i, torso));
             }
         }
-    };
-    if chunks.len() != segments.div_ceil(SEGMENT_CHUNK) {
-        run(0..segments, &mut depth);
         return depth;
     }
     for (k, c) in chunks.iter().enumerate() {
         if bound.may_reach_chunk(c, depth) {
-            run(
-                k * SEGMENT_CHUNK..((k + 1) * SEGMENT_CHUNK).min(segments),
-                &mut depth,
-            );
+            for i in k * SEGMENT_CHUNK..((k + 1) * SEGMENT_CHUNK).min(segments) {
+                if bound.may_exceed_seg(&c.segs[i - k * SEGMENT_CHUNK], depth) {
+                    depth = depth.max(segment_depth(s, i, torso));
+                }
+            }
         }
     }
     depth
@@ -184,11 +186,15 @@ impl TorsoBound {
     /// the segment distance is at least |centres| − both half lengths
     /// (triangle inequality); 0.1 mm margin.
     fn may_exceed(&self, s: &slothsim_scene::Support, i: usize, depth: f32) -> bool {
-        let (a, b) = (s.nodes[i], s.nodes[i + 1]);
-        let c = (a + b) * 0.5;
-        let k = a.distance(b) * 0.5;
-        let reach = BODY_RADIUS + s.radii[i].max(s.radii[i + 1]) - depth + self.half + k + 1e-4;
-        reach > 0.0 && self.centre.distance_squared(c) <= reach * reach
+        self.may_exceed_seg(&SegmentBound::of(s, i), depth)
+    }
+
+    /// [`Self::may_exceed`] for the segment of bound `seg` ([`SegmentBound::of`],
+    /// kept in its [`SegmentChunk`]): the same expression on the same values.
+    #[inline]
+    fn may_exceed_seg(&self, seg: &SegmentBound, depth: f32) -> bool {
+        let reach = BODY_RADIUS + seg.max_radius - depth + self.half + seg.half + 1e-4;
+        reach > 0.0 && self.centre.distance_squared(seg.mid) <= reach * reach
     }
 
     /// False only if [`TorsoBound::may_exceed`] is false for every segment of
@@ -380,7 +386,9 @@ mod tests {
     }
 
     /// The chunk bounds only skip segments that could not count: the same
-    /// answer as testing every segment, on random polylines and torsos.
+    /// answer as testing every segment, on random polylines and torsos (the
+    /// chunked path with the segments' bounds kept in their chunks, the other
+    /// making them at each test).
     #[test]
     fn chunked_torso_penetrates_matches_every_segment() {
         let mut rnd = xorshift(0xfeed);
