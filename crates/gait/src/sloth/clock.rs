@@ -132,6 +132,16 @@ impl Sloth {
         if by_own && !probe && !self.wander && self.lone_fore_locked(env, li) {
             self.lone_fore_searches = self.lone_fore_searches.saturating_add(1);
         }
+        // Goal mode, the lone-fore lock: a limb on the branch takes the
+        // farthest step that unlocks it within a few steps of the footfall
+        // order (`Sloth::lone_fore_unlocking_u`), where one does.
+        if !probe && !self.wander {
+            let sr = self.limbs[li].search;
+            if let Some(u) = self.lone_fore_unlocking_u(env, li, &sr) {
+                self.limbs[li].search.first_u = u;
+                self.limbs[li].search.next_u = u;
+            }
+        }
         self.queue_candidates(env, li, batch);
     }
 

@@ -99,6 +99,19 @@ pub(super) fn search_ahead(env: &LocoView<'_>, g: Grip) -> Search {
 const LONE_FORE_WAIT: u8 = 5;
 const LONE_FORE_END: u8 = 11;
 
+/// Goal mode, the lone-fore lock: a limb on the branch searching there
+/// prefers its farthest step from which the footfall order's next steps,
+/// played out on a copy of the sloth (at most this many after it: with it,
+/// three gait cycles), give the partner of the lone fore limb a step onto
+/// the trunk (`Sloth::lone_fore_unlocking_u`). A one-step lookahead sees
+/// no such step where main unlocks after a sequence (docs/scenarios.md,
+/// branch `lone27`; two cycles gave the same matrix).
+const LONE_FORE_PLAYOUT: usize = 11;
+
+/// The arc-length stride of that lookahead's candidates (metres; the
+/// step lookahead's).
+const LONE_FORE_PLAYOUT_STRIDE: f32 = 0.02;
+
 impl Sloth {
     /// The search of limb `li` on the support it holds: from the search
     /// distance ahead of its grip back to the grip. Side-stepping around a
@@ -199,6 +212,172 @@ impl Sloth {
         !probe
             .neighbour_search(env, partner, t.trunk, 0)
             .is_some_and(|sr| probe.range_has_step(env, partner, &sr))
+    }
+
+    /// Goal mode, the lone-fore lock (a fore limb alone across a head-first
+    /// transfer onto a trunk, its partner with no step onto it: see
+    /// [`Self::lone_fore_locked`]): the farthest arc length in the range
+    /// `sr` of limb `li` (on the branch) whose step, passing the lookahead's
+    /// checks, unlocks the stance within [`LONE_FORE_PLAYOUT`] steps of the
+    /// footfall order played out on a copy of the sloth
+    /// ([`Self::playout_unlocks`]). `None` where the stance is not so
+    /// locked, or no step of the range unlocks it that way (the search is
+    /// left as it is). The farthest step that unlocks is the search's own
+    /// where its farthest does.
+    pub(super) fn lone_fore_unlocking_u(
+        &self,
+        env: &LocoView<'_>,
+        li: usize,
+        sr: &Search,
+    ) -> Option<f32> {
+        if self.wander || sr.retreat {
+            return None;
+        }
+        let (lone, t, partner) =
+            [Limb::LF.index(), Limb::RF.index()]
+                .into_iter()
+                .find_map(|f| {
+                    self.lone_fore_across(f)
+                        .filter(|_| self.lone_fore_locked(env, f))
+                        .map(|(t, p)| (f, t, p))
+                })?;
+        if li == lone || self.limbs[li].grip.support == t.trunk {
+            return None;
+        }
+        let len = env.scene().support(sr.support).length();
+        let mut u = sr.next_u;
+        while (u - sr.last_u) * sr.sdir >= -1e-6 {
+            let at = u;
+            u -= sr.sdir * LONE_FORE_PLAYOUT_STRIDE;
+            if !(env.cfg.end_margin_m..=len - env.cfg.end_margin_m).contains(&at) {
+                continue;
+            }
+            let Some((_, c)) = self.candidate(
+                env,
+                &super::candidate::CandidateAt::probe(li, sr, at),
+                &mut 0,
+            ) else {
+                continue;
+            };
+            let grip = Grip {
+                point: c.point,
+                normal: c.out,
+                support: sr.support,
+                u: at,
+                sdir: sr.sdir,
+            };
+            // Played out facing the goal (a back-off's step too: the
+            // back-off ends within a cycle).
+            let mut next = self.after_steps(env, [(li, grip)]);
+            if next.dir != t.dir {
+                next.dir = t.dir;
+                for l in &mut next.limbs {
+                    l.grip.sdir = -l.grip.sdir;
+                }
+            }
+            next.backoff = None;
+            if next.partner_has_trunk_step(env, t, partner)
+                || next.playout_unlocks(env, li, t, partner)
+            {
+                return Some(at);
+            }
+        }
+        None
+    }
+
+    /// Whether the fore limb `partner` has a step onto the transfer's trunk.
+    fn partner_has_trunk_step(
+        &self,
+        env: &LocoView<'_>,
+        t: super::Transfer,
+        partner: usize,
+    ) -> bool {
+        self.neighbour_search(env, partner, t.trunk, 0)
+            .is_some_and(|s| self.range_has_step(env, partner, &s))
+    }
+
+    /// The steps of the footfall order after limb `li`'s (which this copy
+    /// has taken), up to [`LONE_FORE_PLAYOUT`], played out on a copy: each
+    /// limb takes the farthest step the lookahead's checks pass on its own
+    /// support or a neighbour it may follow onto (none: it stays; a full
+    /// cycle of none ends the play). Whether the partner takes the trunk or
+    /// is left a step onto it on the way.
+    fn playout_unlocks(
+        &self,
+        env: &LocoView<'_>,
+        li: usize,
+        t: super::Transfer,
+        partner: usize,
+    ) -> bool {
+        let offsets = env.cfg.phase_offsets();
+        let mut order = [0usize, 1, 2, 3];
+        order.sort_by(|&a, &b| {
+            let da = (offsets[a] - offsets[li]).rem_euclid(1.0);
+            let db = (offsets[b] - offsets[li]).rem_euclid(1.0);
+            da.total_cmp(&db)
+        });
+        let mut sim = *self;
+        let mut idle = 0;
+        for k in 1..=LONE_FORE_PLAYOUT {
+            let lj = order[k % 4];
+            if let Some(grip) = sim.farthest_probe_step(env, lj) {
+                if lj == partner && grip.support == t.trunk {
+                    return true;
+                }
+                sim = sim.after_steps(env, [(lj, grip)]);
+                idle = 0;
+            } else {
+                idle += 1;
+                if idle >= 4 {
+                    return false;
+                }
+            }
+            if sim.partner_has_trunk_step(env, t, partner) {
+                return true;
+            }
+        }
+        false
+    }
+
+    /// The farthest step of limb `lj` the lookahead's checks pass (no
+    /// traces; every [`LONE_FORE_PLAYOUT_STRIDE`]): on its own support, else
+    /// a neighbour it may follow onto.
+    fn farthest_probe_step(&self, env: &LocoView<'_>, lj: usize) -> Option<Grip> {
+        let scan = |sr: &Search| -> Option<Grip> {
+            let len = env.scene().support(sr.support).length();
+            let mut u = sr.next_u;
+            while (u - sr.last_u) * sr.sdir >= -1e-6 {
+                let at = u;
+                u -= sr.sdir * LONE_FORE_PLAYOUT_STRIDE;
+                if !(env.cfg.end_margin_m..=len - env.cfg.end_margin_m).contains(&at) {
+                    continue;
+                }
+                if let Some((_, c)) = self.candidate(
+                    env,
+                    &super::candidate::CandidateAt::probe(lj, sr, at),
+                    &mut 0,
+                ) {
+                    return Some(Grip {
+                        point: c.point,
+                        normal: c.out,
+                        support: sr.support,
+                        u: at,
+                        sdir: sr.sdir,
+                    });
+                }
+            }
+            None
+        };
+        let g = self.limbs[lj].grip;
+        scan(&self.own_search(env, lj)).or_else(|| {
+            env.adjacency.neighbours(g.support).iter().find_map(|&sid| {
+                if !self.may_follow(env, lj, sid) {
+                    return None;
+                }
+                self.neighbour_search(env, lj, sid, 0)
+                    .and_then(|sr| scan(&sr))
+            })
+        })
     }
 
     /// The candidate range of limb `li` on neighbour support `sid`, if its
