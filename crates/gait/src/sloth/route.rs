@@ -244,45 +244,50 @@ impl Sloth {
         if li == lone || self.limbs[li].grip.support == t.trunk {
             return None;
         }
+        self.probe_steps(env, li, sr)
+            .find(|&grip| {
+                // Played out facing the goal (a back-off's step too: the
+                // back-off ends within a cycle).
+                let mut next = self.after_steps(env, [(li, grip)]);
+                if next.dir != t.dir {
+                    next.dir = t.dir;
+                    for l in &mut next.limbs {
+                        l.grip.sdir = -l.grip.sdir;
+                    }
+                }
+                next.backoff = None;
+                next.partner_has_trunk_step(env, t, partner)
+                    || next.playout_unlocks(env, li, t, partner)
+            })
+            .map(|grip| grip.u)
+    }
+
+    /// The steps of limb `lj` in the range `sr` the lookahead's checks pass
+    /// (no traces), farthest first, every [`LONE_FORE_PLAYOUT_STRIDE`].
+    fn probe_steps<'a>(
+        &'a self,
+        env: &'a LocoView<'_>,
+        lj: usize,
+        sr: &'a Search,
+    ) -> impl Iterator<Item = Grip> + 'a {
         let len = env.scene().support(sr.support).length();
-        let mut u = sr.next_u;
-        while (u - sr.last_u) * sr.sdir >= -1e-6 {
-            let at = u;
-            u -= sr.sdir * LONE_FORE_PLAYOUT_STRIDE;
-            if !(env.cfg.end_margin_m..=len - env.cfg.end_margin_m).contains(&at) {
-                continue;
-            }
-            let Some((_, c)) = self.candidate(
-                env,
-                &super::candidate::CandidateAt::probe(li, sr, at),
-                &mut 0,
-            ) else {
-                continue;
-            };
-            let grip = Grip {
+        let ends = env.cfg.end_margin_m..=len - env.cfg.end_margin_m;
+        std::iter::successors(Some(sr.next_u), move |u| {
+            Some(u - sr.sdir * LONE_FORE_PLAYOUT_STRIDE)
+        })
+        .take_while(move |u| (u - sr.last_u) * sr.sdir >= -1e-6)
+        .filter(move |u| ends.contains(u))
+        .filter_map(move |at| {
+            let at_probe = super::candidate::CandidateAt::probe(lj, sr, at);
+            let (_, c) = self.candidate(env, &at_probe, &mut 0)?;
+            Some(Grip {
                 point: c.point,
                 normal: c.out,
                 support: sr.support,
                 u: at,
                 sdir: sr.sdir,
-            };
-            // Played out facing the goal (a back-off's step too: the
-            // back-off ends within a cycle).
-            let mut next = self.after_steps(env, [(li, grip)]);
-            if next.dir != t.dir {
-                next.dir = t.dir;
-                for l in &mut next.limbs {
-                    l.grip.sdir = -l.grip.sdir;
-                }
-            }
-            next.backoff = None;
-            if next.partner_has_trunk_step(env, t, partner)
-                || next.playout_unlocks(env, li, t, partner)
-            {
-                return Some(at);
-            }
-        }
-        None
+            })
+        })
     }
 
     /// Whether the fore limb `partner` has a step onto the transfer's trunk.
@@ -343,31 +348,7 @@ impl Sloth {
     /// traces; every [`LONE_FORE_PLAYOUT_STRIDE`]): on its own support, else
     /// a neighbour it may follow onto.
     fn farthest_probe_step(&self, env: &LocoView<'_>, lj: usize) -> Option<Grip> {
-        let scan = |sr: &Search| -> Option<Grip> {
-            let len = env.scene().support(sr.support).length();
-            let mut u = sr.next_u;
-            while (u - sr.last_u) * sr.sdir >= -1e-6 {
-                let at = u;
-                u -= sr.sdir * LONE_FORE_PLAYOUT_STRIDE;
-                if !(env.cfg.end_margin_m..=len - env.cfg.end_margin_m).contains(&at) {
-                    continue;
-                }
-                if let Some((_, c)) = self.candidate(
-                    env,
-                    &super::candidate::CandidateAt::probe(lj, sr, at),
-                    &mut 0,
-                ) {
-                    return Some(Grip {
-                        point: c.point,
-                        normal: c.out,
-                        support: sr.support,
-                        u: at,
-                        sdir: sr.sdir,
-                    });
-                }
-            }
-            None
-        };
+        let scan = |sr: &Search| self.probe_steps(env, lj, sr).next();
         let g = self.limbs[lj].grip;
         scan(&self.own_search(env, lj)).or_else(|| {
             env.adjacency.neighbours(g.support).iter().find_map(|&sid| {
