@@ -17,6 +17,9 @@ pub const POINTS_PER_SLOTH: usize = 7;
 const PART_BITS: u32 = 6;
 const PARTS: usize = 1 << PART_BITS;
 
+/// Buckets per point of the grid (before rounding up to a power of two).
+const BUCKETS_PER_POINT: usize = 2;
+
 /// Sloths per job of the rebuild's counting and scattering passes.
 const SLOTHS_PER_JOB: usize = 1024;
 
@@ -244,9 +247,11 @@ impl CrowdGrid {
             }
         }
         let n: usize = part_len.iter().sum();
-        // About two points a bucket (a sloth's 7 points share few cells): the
-        // sort's scattered writes then stay in cache.
-        let buckets = (n / 2).next_power_of_two().max(PARTS);
+        // Half a point to one point a bucket: a query walks about 21 cells,
+        // most of them empty, and each cell's bucket brings the points of
+        // every other cell hashed to it (tested and rejected on distance);
+        // with two points a bucket those were most of a query's tests.
+        let buckets = (n * BUCKETS_PER_POINT).next_power_of_two().max(PARTS);
         self.mask = buckets as u32 - 1;
         self.per_part = (buckets / PARTS) as u32;
         // 2. Scatter into the partitions: partition-major, then block order.
