@@ -101,6 +101,9 @@ struct Placement {
     /// junction, landing no higher than the partner's grip (from level
     /// with it, no more than a girdle lead higher).
     closing: bool,
+    /// A gathering step ([`Sloth::gathering`]): no step length, direction
+    /// or leg order but the same side's spacing.
+    gathering: bool,
 }
 
 impl Placement {
@@ -173,10 +176,12 @@ impl Sloth {
             at
         };
         let a = env.adjacency.axis_at(env.scene().support(at.support), at.u);
-        if self.surely_too_far(env, at, &a) {
+        let gathering = self.gathering(env, at.limb, at.support);
+        if !gathering && self.surely_too_far(env, at, &a) {
             return None;
         }
         let mut p = self.place(env, at, a);
+        p.gathering = gathering;
         if let Some(toward) = closing {
             p.travel = toward;
             p.closing = true;
@@ -279,6 +284,7 @@ impl Sloth {
             max_step,
             pair,
             closing: false,
+            gathering: false,
         }
     }
 
@@ -379,6 +385,9 @@ impl Sloth {
             // A transfer step goes where the other support is (reach decides).
             p.transfer_step || step >= min_step
         };
+        if p.gathering {
+            return true;
+        }
         if !step_ok || dist > p.max_step {
             return false;
         }
@@ -508,6 +517,10 @@ impl Sloth {
         let (limb, approx) = (p.limb, p.grip);
         // Leg order: hind never ahead of a fore limb; never behind the opposite limb of the girdle.
         let proj = |v: Vec3| v.dot(p.body_fwd);
+        if p.gathering {
+            let same_side = self.limbs[limb.same_side().index()].grip.point;
+            return (proj(approx) - proj(same_side)).abs() >= cfg.same_side_spacing_m;
+        }
         let fore_at = |f: Limb| {
             if lifting == Some(f.index()) {
                 f32::INFINITY

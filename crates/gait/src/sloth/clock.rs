@@ -126,7 +126,9 @@ impl Sloth {
         self.limbs[li].probe = probe;
         // Goal mode: a search of the lone fore limb across a locked
         // transfer onto a trunk is counted (`Sloth::own_search`).
-        let goal_branch = self.goal_branch_search(env, li);
+        let goal_branch = self
+            .goal_branch_search(env, li)
+            .or_else(|| self.gather_search(env, li));
         let by_own = goal_branch.is_none();
         self.limbs[li].search = goal_branch.unwrap_or_else(|| self.own_search(env, li));
         if by_own && !probe && !self.wander && self.lone_fore_locked(env, li) {

@@ -451,6 +451,21 @@ impl Sloth {
         search
     }
 
+    /// A stalled straddler's limb off the branch it gathers on
+    /// ([`Sloth::gather_onto`]) searches that branch first, where it comes
+    /// within reach, then as before (its own support, its neighbours, a
+    /// retreat).
+    pub(super) fn gather_search(&self, env: &LocoView<'_>, li: usize) -> Option<Search> {
+        let sid = self.gather_onto(env)?;
+        if sid == self.limbs[li].grip.support {
+            return None;
+        }
+        self.neighbour_search(env, li, sid, 0).map(|sr| Search {
+            goal_first: true,
+            ..sr
+        })
+    }
+
     /// Wander mode: a branch to leave trunk `trunk` for, tried before the
     /// trunk by a fore limb climbing past it (head first, no transfer under
     /// way): a neighbouring branch rising from the trunk (its first metres at

@@ -5,6 +5,9 @@
 //! it; committed steps let the steady profile's swings overlap.
 
 use slothsim_rig::Limb;
+use slothsim_scene::{SupportId, SupportKind};
+
+use crate::path::project;
 
 use super::body::{BodySide, body_offset};
 use super::candidate::CandidateAt;
@@ -306,7 +309,8 @@ impl Sloth {
             if queued > 0 || batch.len == MAX_TRACES || checks >= MAX_REACH_CHECKS_PER_FRAME {
                 return;
             }
-            // The goal's branch is exhausted: climb on along the trunk.
+            // The goal's branch is exhausted: climb on along the trunk (a
+            // gathering limb: on along its own support, `gather_search`).
             if sr.goal_first {
                 let neighbour = sr.neighbour;
                 self.limbs[li].search = Search {
@@ -635,6 +639,75 @@ impl Sloth {
         }
     }
 
+    /// Wander mode, stalled ([`Self::stalled`]) straddling two branches (a
+    /// junction: its limbs on two branches, no transfer or turn under way):
+    /// the branch its limbs gather on, the one most of them hold, at two
+    /// and two the one nearer the body (its surface), at a tie the lower
+    /// id. Such a sloth can never turn around (`may_turn_around` needs all
+    /// four limbs on one branch), and its turn-backs re-gripped a few
+    /// centimetres back and forth (traced in the 5,000 × 300 s crowd: most
+    /// wanderers stalled in place, 2026-11-27). Its limbs off that branch
+    /// search it first ([`Sloth::gather_search`]), by the relaxed checks
+    /// of a gathering step ([`Sloth::gathering`]), then as before. Once
+    /// all four hold it, the turn around applies at the next give-up.
+    pub(super) fn gather_onto(&self, env: &LocoView<'_>) -> Option<SupportId> {
+        if !self.stalled()
+            || self.turn.is_some()
+            || self.transfer.is_some()
+            || self.hang_trunk.is_some()
+        {
+            return None;
+        }
+        let a = self.limbs[0].grip.support;
+        let b = self
+            .limbs
+            .iter()
+            .map(|l| l.grip.support)
+            .find(|&s| s != a)?;
+        let scene = env.scene();
+        let mut held = [0usize; 2];
+        for l in &self.limbs {
+            if l.grip.support == a {
+                held[0] += 1;
+            } else if l.grip.support == b {
+                held[1] += 1;
+            } else {
+                return None;
+            }
+        }
+        if [a, b]
+            .iter()
+            .any(|&s| scene.support(s).kind != SupportKind::Branch)
+        {
+            return None;
+        }
+        if held[0] != held[1] {
+            return Some(if held[0] > held[1] { a } else { b });
+        }
+        let gap = |s: SupportId| {
+            let p = project(scene.support(s), self.body_pos);
+            p.point.distance(self.body_pos) - p.radius
+        };
+        let (ga, gb) = (gap(a), gap(b));
+        Some(if ga < gb || (ga == gb && a.0 < b.0) {
+            a
+        } else {
+            b
+        })
+    }
+
+    /// A gathering step: limb `li` onto `sid`, the branch a stalled
+    /// straddler gathers on ([`Self::gather_onto`]). Its step length and
+    /// direction and the leg order (but the same side's spacing) are not
+    /// checked: the other branch runs out of a step's length from the limb
+    /// at most such junctions (the limbs a body's length apart on branches
+    /// that part), and its reach (the joint limits at the swing and the
+    /// landing), head up, the other sloths' clearance and the body out of
+    /// the supports decide.
+    pub(super) fn gathering(&self, env: &LocoView<'_>, li: usize, sid: SupportId) -> bool {
+        self.wander && self.limbs[li].grip.support != sid && self.gather_onto(env) == Some(sid)
+    }
+
     /// Wander mode: turn-backs have brought no way on — two without a step,
     /// or two since the body last travelled a max step.
     fn stalled(&self) -> bool {
@@ -684,5 +757,130 @@ impl Sloth {
             let left = if g.sdir > 0.0 { len - g.u } else { g.u };
             self.leads(limb) && left < env.cfg.search_distance_m + env.cfg.end_margin_m
         })
+    }
+}
+
+#[cfg(test)]
+mod gather_tests {
+    use slothsim_rig::Rig;
+    use slothsim_scene::{Preset, PresetKind, TraceScene};
+
+    use super::super::test_util::{tick, xorshift};
+    use super::super::{NearRing, SpawnHint};
+    use super::*;
+    use crate::{LocoEnv, LocomotionConfig, Profile};
+
+    /// Wanderers walked across the junction of the `turn` preset (angles
+    /// drawn at random), taken where they straddle its two branches (all
+    /// limbs planted, no transfer or turn), then stalled (eight turn-backs
+    /// without travel, `Sloth::stall_from`; every other one turned back):
+    /// [`Sloth::gather_onto`] names the branch most limbs hold, and the
+    /// sloth stands on one branch within 30 s, on that one in at least half
+    /// the cases (the others walked on onto the other branch: the way on is
+    /// free here). Some limbs off that branch have a step onto it only as a
+    /// gathering step (the same stance not stalled has none: the step
+    /// length, its direction or the leg order refuses them), and every step
+    /// onto it the plain checks allow is a gathering step too. Not stalled,
+    /// or in goal mode, there is nothing to gather.
+    #[test]
+    fn a_stalled_straddler_gathers_on_one_branch() {
+        let mut rnd = xorshift(26);
+        let (mut cases, mut only_gathering, mut gathered) = (0, 0, 0);
+        for _ in 0..6 {
+            let angle = 60.0 + 120.0 * rnd();
+            let preset = Preset::new(PresetKind::Turn, Some(angle)).unwrap();
+            let cfg = LocomotionConfig::profile(Profile::Free);
+            let env =
+                LocoEnv::new(cfg, &Rig::sloth(), TraceScene::new(preset.scene.clone())).unwrap();
+            let view = env.view();
+            let s = preset.start;
+            let hint = SpawnHint {
+                support: s.support,
+                position: s.position,
+                forward: s.forward,
+                body_side: s.body_side,
+            };
+            let mut sloth = Sloth::spawn(&view, &hint, None);
+            sloth.wander = true;
+            let (mut batch, mut near) = (TraceBatch::default(), NearRing::default());
+            let mut straddles = Vec::new();
+            for frame in 0..2400 {
+                tick(&mut sloth, &mut near, &view, &mut batch);
+                let a = sloth.limbs[0].grip.support;
+                if frame % 10 == 0
+                    && sloth.limbs.iter().any(|l| l.grip.support != a)
+                    && sloth.limbs.iter().all(|l| l.phase == LimbPhase::Planted)
+                    && sloth.transfer.is_none()
+                    && sloth.turn.is_none()
+                {
+                    straddles.push(sloth);
+                }
+            }
+            for (k, &plain) in straddles.iter().enumerate() {
+                assert_eq!(plain.gather_onto(&view), None, "angle {angle}: not stalled");
+                let mut stalled = plain;
+                if k % 2 == 1 {
+                    // Turned back: tail first.
+                    stalled.turn_back();
+                }
+                stalled.stall_from = Some((stalled.body_pos, 8));
+                stalled.stalled_turns = 0;
+                let mut goal_mode = stalled;
+                goal_mode.wander = false;
+                assert_eq!(
+                    goal_mode.gather_onto(&view),
+                    None,
+                    "angle {angle}: goal mode"
+                );
+                let sid = stalled
+                    .gather_onto(&view)
+                    .expect("a stalled straddler gathers");
+                let held =
+                    |s: &Sloth, sid| s.limbs.iter().filter(|l| l.grip.support == sid).count();
+                assert!(
+                    2 * held(&stalled, sid) >= 4,
+                    "angle {angle}: the branch most hold"
+                );
+                for li in 0..4 {
+                    if stalled.limbs[li].grip.support == sid {
+                        continue;
+                    }
+                    let has = |s: &Sloth| {
+                        s.neighbour_search(&view, li, sid, 0)
+                            .is_some_and(|sr| s.range_has_step(&view, li, &sr))
+                    };
+                    let mut plain_dir = plain;
+                    plain_dir.dir = stalled.dir;
+                    for (p, q) in plain_dir.limbs.iter_mut().zip(&stalled.limbs) {
+                        p.grip.sdir = q.grip.sdir;
+                    }
+                    let (p, g) = (has(&plain_dir), has(&stalled));
+                    assert!(
+                        !p || g,
+                        "angle {angle} case {k} limb {li}: a plain step refused"
+                    );
+                    only_gathering += usize::from(g && !p);
+                }
+                let mut sl = stalled;
+                let (mut batch, mut near) = (TraceBatch::default(), NearRing::default());
+                let mut one = None;
+                for _ in 0..1800 {
+                    tick(&mut sl, &mut near, &view, &mut batch);
+                    assert!(sl.body_pos.is_finite(), "angle {angle} case {k}");
+                    let a = sl.limbs[0].grip.support;
+                    if held(&sl, a) == 4 && sl.limbs.iter().all(|l| l.phase == LimbPhase::Planted) {
+                        one = Some(a);
+                        break;
+                    }
+                }
+                let one = one.expect("on one branch within 30 s");
+                gathered += usize::from(one == sid);
+                cases += 1;
+            }
+        }
+        assert!(
+            cases >= 10 && only_gathering > 0 && 2 * gathered >= cases,
+            "{cases} straddles, {gathered} gathered, {only_gathering} limbs with gathering steps only"
+        );
     }
 }
