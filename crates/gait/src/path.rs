@@ -1,6 +1,8 @@
 //! Arc-length helpers over a support's axis polyline, and the static support
 //! adjacency graph (which supports touch which) built once per forest.
 
+use std::cmp::Ordering;
+
 use glam::Vec3;
 use slothsim_scene::{BoxOverlap, SceneQuery, Support, SupportId};
 
@@ -48,7 +50,12 @@ pub(crate) fn axis_at_arcs(s: &Support, arcs: &[(f32, f32)], u: f32) -> AxisPoin
     // `axis_at` stops at the first `i` with `u <= acc + len` (or the last):
     // `acc + len` is the next segment's `acc` (the same sum), non-decreasing
     // in `i`, so the segments before it are a prefix (a NaN `u` passes none).
-    let i = arcs[..last].partition_point(|&(acc, len)| !(u <= acc + len));
+    let i = arcs[..last].partition_point(|&(acc, len)| {
+        !matches!(
+            u.partial_cmp(&(acc + len)),
+            Some(Ordering::Less | Ordering::Equal)
+        )
+    });
     let (a, b) = (s.nodes[i], s.nodes[i + 1]);
     let (acc, len) = arcs[i];
     let t = ((u - acc) / len).clamp(0.0, 1.0);
