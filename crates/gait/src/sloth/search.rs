@@ -180,13 +180,9 @@ impl Sloth {
             {
                 continue;
             }
-            // Stuck (a search gave up since the last step), or a stalled
-            // wanderer half-way through a transfer: any step that passes its
-            // checks changes the stance, and may unlock it.
-            if self.stuck_cause.is_none()
-                && !self.stalled_mid_transfer()
-                && !self.leaves_a_step(env, li, grip, pair_grip)
-            {
+            // Stuck (a search gave up since the last step): any step that
+            // passes its checks changes the stance, and may unlock it.
+            if self.stuck_cause.is_none() && !self.leaves_a_step(env, li, grip, pair_grip) {
                 continue;
             }
             // A search made only to know whether there is a step: there is,
@@ -637,21 +633,6 @@ impl Sloth {
         {
             self.stall_from = None;
         }
-    }
-
-    /// A stalled wanderer ([`Self::stalled`]) with some but not all limbs on
-    /// its transfer's target: it cannot turn around (`may_turn_around` needs
-    /// one branch), and its turn-backs each brought exactly one step (the
-    /// lookahead is skipped while `stuck_cause` is set) after which the
-    /// lookahead refused every traced candidate, until the next give-up
-    /// (traced in the 5,000-sloth crowd: see docs/locomotion.md). Its steps
-    /// skip the lookahead.
-    fn stalled_mid_transfer(&self) -> bool {
-        self.stalled()
-            && self.transfer.is_some_and(|t| {
-                let on = self.limbs.iter().filter(|l| l.grip.support == t.to).count();
-                on > 0 && on < 4
-            })
     }
 
     /// Wander mode: turn-backs have brought no way on — two without a step,
