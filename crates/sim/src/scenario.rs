@@ -239,12 +239,7 @@ pub fn run_scenario_observed(
     let path_len = start.position.distance(goal.point) + around + 1.0;
     let time_limit_s = spec.time_limit_s.unwrap_or(30.0 + path_len / 0.03);
     let loco = Locomotion::new(spec.cfg.clone(), rig, TraceScene::new(preset.scene.clone()))?;
-    let hint = SpawnHint {
-        support: start.support,
-        position: start.position,
-        forward: start.forward,
-        body_side: start.body_side,
-    };
+    let hint = SpawnHint::from(start);
     let mut sloth = Sloth::spawn(
         &loco.view(),
         &hint,

@@ -281,16 +281,7 @@ impl Sloth {
             pos + rot * env.rig.torso_ms[1],
         ];
         let bound = TorsoBound::new(torso);
-        let mut seen = [SupportId(u32::MAX); 32];
-        let mut n_seen = 0;
-        self.near_supports(env).any(|id| {
-            if seen[..n_seen].contains(&id) {
-                return false;
-            }
-            if n_seen < seen.len() {
-                seen[n_seen] = id;
-                n_seen += 1;
-            }
+        self.near_supports_once(env).any(|id| {
             torso_penetrates_bounded(
                 scene.support(id),
                 env.adjacency.segment_chunks(id),
@@ -323,18 +314,7 @@ impl Sloth {
             std::array::from_fn(|k| TorsoBound::new(torsos.get(k).copied().unwrap_or(torsos[0])));
         let bounds = &bounds[..bodies.len()];
         let all = TorsoBound::around(bounds);
-        // Each support once (a held support is also its held neighbour's
-        // neighbour); past `seen`'s room, a support may be tested twice.
-        let mut seen = [SupportId(u32::MAX); 32];
-        let mut n_seen = 0;
-        self.near_supports(env).any(|id| {
-            if seen[..n_seen].contains(&id) {
-                return false;
-            }
-            if n_seen < seen.len() {
-                seen[n_seen] = id;
-                n_seen += 1;
-            }
+        self.near_supports_once(env).any(|id| {
             torsos_penetrate(
                 scene.support(id),
                 env.adjacency.segment_chunks(id),
@@ -358,6 +338,27 @@ impl Sloth {
             .flat_map(move |k| {
                 std::iter::once(held[k]).chain(env.adjacency.neighbours(held[k]).iter().copied())
             })
+    }
+
+    /// [`Self::near_supports`], each support once (a held support is also
+    /// its held neighbour's neighbour); past 32 distinct supports, one may
+    /// come twice.
+    fn near_supports_once<'w>(
+        &self,
+        env: &'w LocoView<'_>,
+    ) -> impl Iterator<Item = SupportId> + 'w {
+        let mut seen = [SupportId(u32::MAX); 32];
+        let mut n_seen = 0;
+        self.near_supports(env).filter(move |&id| {
+            if seen[..n_seen].contains(&id) {
+                return false;
+            }
+            if n_seen < seen.len() {
+                seen[n_seen] = id;
+                n_seen += 1;
+            }
+            true
+        })
     }
 }
 

@@ -480,6 +480,18 @@ pub struct SpawnHint {
     pub body_side: Vec3,
 }
 
+impl From<slothsim_scene::StartHint> for SpawnHint {
+    /// A preset's start.
+    fn from(s: slothsim_scene::StartHint) -> Self {
+        SpawnHint {
+            support: s.support,
+            position: s.position,
+            forward: s.forward,
+            body_side: s.body_side,
+        }
+    }
+}
+
 impl Sloth {
     /// Whether all four limbs' grips are on support `sid`, a swinging limb's
     /// being the one it swings to.

@@ -314,13 +314,7 @@ impl Sloth {
         t: super::Transfer,
         partner: usize,
     ) -> bool {
-        let offsets = env.cfg.phase_offsets();
-        let mut order = [0usize, 1, 2, 3];
-        order.sort_by(|&a, &b| {
-            let da = (offsets[a] - offsets[li]).rem_euclid(1.0);
-            let db = (offsets[b] - offsets[li]).rem_euclid(1.0);
-            da.total_cmp(&db)
-        });
+        let order = super::search::footfall_order_from(env, li);
         let mut sim = *self;
         let mut idle = 0;
         for k in 1..=LONE_FORE_PLAYOUT {

@@ -414,14 +414,7 @@ impl Sloth {
         pair: Option<(usize, Grip)>,
     ) -> bool {
         let next = self.after_steps(env, std::iter::once((li, grip)).chain(pair));
-        let offsets = env.cfg.phase_offsets();
-        let mut order = [0usize, 1, 2, 3];
-        order.sort_by(|&a, &b| {
-            let da = (offsets[a] - offsets[li]).rem_euclid(1.0);
-            let db = (offsets[b] - offsets[li]).rem_euclid(1.0);
-            da.total_cmp(&db)
-        });
-        order
+        footfall_order_from(env, li)
             .into_iter()
             .filter(|&lj| lj != li && pair.is_none_or(|(pi, _)| lj != pi))
             .any(|lj| next.has_step(env, lj))
@@ -760,6 +753,19 @@ impl Sloth {
     }
 }
 
+/// The limbs in footfall order from limb `li` (`li` first, then the limbs
+/// lifting after it within the gait cycle).
+pub(super) fn footfall_order_from(env: &LocoView<'_>, li: usize) -> [usize; 4] {
+    let offsets = env.cfg.phase_offsets();
+    let mut order = [0usize, 1, 2, 3];
+    order.sort_by(|&a, &b| {
+        let da = (offsets[a] - offsets[li]).rem_euclid(1.0);
+        let db = (offsets[b] - offsets[li]).rem_euclid(1.0);
+        da.total_cmp(&db)
+    });
+    order
+}
+
 #[cfg(test)]
 mod gather_tests {
     use slothsim_rig::Rig;
@@ -794,12 +800,7 @@ mod gather_tests {
                 LocoEnv::new(cfg, &Rig::sloth(), TraceScene::new(preset.scene.clone())).unwrap();
             let view = env.view();
             let s = preset.start;
-            let hint = SpawnHint {
-                support: s.support,
-                position: s.position,
-                forward: s.forward,
-                body_side: s.body_side,
-            };
+            let hint = SpawnHint::from(s);
             let mut sloth = Sloth::spawn(&view, &hint, None);
             sloth.wander = true;
             let (mut batch, mut near) = (TraceBatch::default(), NearRing::default());

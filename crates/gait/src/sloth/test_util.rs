@@ -28,12 +28,7 @@ pub(crate) fn preset_sloth_with(kind: PresetKind, profile: Profile) -> (LocoEnv,
     let cfg = LocomotionConfig::profile(profile);
     let env = LocoEnv::new(cfg, &Rig::sloth(), TraceScene::new(preset.scene.clone())).unwrap();
     let s = preset.start;
-    let hint = SpawnHint {
-        support: s.support,
-        position: s.position,
-        forward: s.forward,
-        body_side: s.body_side,
-    };
+    let hint = SpawnHint::from(s);
     let g = preset.goal;
     let mut sloth = Sloth::spawn(&env.view(), &hint, Some((g.support, g.point, g.tolerance)));
     sloth.goal_side = g.side;

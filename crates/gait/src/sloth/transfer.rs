@@ -700,12 +700,7 @@ mod tests {
         std::mem::swap(&mut s.position, &mut g.point);
         s.forward = Vec3::Y;
         s.body_side = away * angle.cos() + Vec3::Y.cross(away) * angle.sin();
-        let hint = SpawnHint {
-            support: s.support,
-            position: s.position,
-            forward: s.forward,
-            body_side: s.body_side,
-        };
+        let hint = SpawnHint::from(s);
         let mut sloth = Sloth::spawn(&view, &hint, Some((g.support, g.point, g.tolerance)));
         sloth.goal_side = g.side;
         let mut batch = TraceBatch::default();
