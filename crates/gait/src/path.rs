@@ -290,6 +290,7 @@ impl Adjacency {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::sloth::test_util::xorshift;
 
     fn bits(a: AxisPoint) -> [u32; 8] {
         [
@@ -310,13 +311,7 @@ mod tests {
     /// each segment's end exactly, infinities and NaN.
     #[test]
     fn axis_at_arcs_matches_axis_at() {
-        let mut s = 0x9e37_79b9_7f4a_7c15u64;
-        let mut rnd = move || {
-            s ^= s << 13;
-            s ^= s >> 7;
-            s ^= s << 17;
-            (s >> 40) as f32 / (1u64 << 24) as f32
-        };
+        let mut rnd = xorshift(0x9e37_79b9_7f4a_7c15);
         let mut checked = 0u64;
         for case in 0..300 {
             let n = 2 + (rnd() * 39.0) as usize;

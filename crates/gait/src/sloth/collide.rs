@@ -270,10 +270,8 @@ impl Sloth {
     /// Whether a body at (`pos`, `rot`) would enter a support near the grips
     /// (e.g. walking a branch into its trunk).
     ///
-    /// Each support is tested once (a held support is also its held
-    /// neighbour's neighbour: [`Self::near_supports`] names it again; past
-    /// `seen`'s room a support may be tested twice), with the torso's bound
-    /// made once: the same `any` over the same pure tests.
+    /// Each support is tested once ([`Self::near_supports_once`]), with the
+    /// torso's bound made once: the same `any` over the same pure tests.
     pub(super) fn body_penetrates(&self, env: &LocoView<'_>, pos: Vec3, rot: Quat) -> bool {
         let scene = env.scene();
         let torso = [
