@@ -124,6 +124,12 @@ impl Sloth {
         }
         self.limbs[li].phase = LimbPhase::Searching;
         self.limbs[li].probe = probe;
+        // Goal mode, the lone-fore lock going round a circle: where a turn of
+        // the transfer's side gives the partner a step onto the trunk, it
+        // turns now, with no limb in the air (`Sloth::turn_side_in_lone_lock`).
+        if !probe {
+            self.turn_side_in_lone_lock(env);
+        }
         // Goal mode: a search of the lone fore limb across a locked
         // transfer onto a trunk is counted (`Sloth::own_search`).
         let goal_branch = self

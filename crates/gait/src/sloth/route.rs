@@ -214,6 +214,32 @@ impl Sloth {
             .is_some_and(|sr| probe.range_has_step(env, partner, &sr))
     }
 
+    /// Goal mode, the lone-fore lock ([`Self::lone_fore_locked`]) going
+    /// round a circle (the transfer's livelock watch has seen one of its
+    /// stances again, [`super::Transfer::circling`]), outside a back-off:
+    /// the transfer's side turns toward the partner where a turn within the
+    /// transfer's bound gives it a step onto the trunk and the stance holds
+    /// ([`Self::turned_transfer_side`], the re-plan's turn). The re-plan
+    /// makes that turn only with no limb in the air, and the watch's
+    /// give-up comes at a step's landing, with the next limb swinging:
+    /// branch_trunk 0.2 m 124.5°, LF alone on the trunk from 18 s, the
+    /// turn of 30° ready at every search, refused at both give-ups (51.8 s,
+    /// 85.4 s), the circle to the time limit. Made while a limb swung, the
+    /// body jumped 18 mm into the trunk. A lock that does not circle is
+    /// left to the steps (turned at its first search, 0.2 m 137.5°, 155.5°,
+    /// 156°, 0.15 m 151° were lost: main's own steps unlock those).
+    pub(super) fn turn_side_in_lone_lock(&mut self, env: &LocoView<'_>) {
+        if self.wander || self.backoff.is_some() || !self.transfer.is_some_and(|t| t.circling()) {
+            return;
+        }
+        let locked = [Limb::LF.index(), Limb::RF.index()]
+            .into_iter()
+            .any(|f| self.lone_fore_locked(env, f));
+        if locked && let Some(tr) = self.turned_transfer_side(env) {
+            self.transfer = Some(tr);
+        }
+    }
+
     /// Goal mode, the lone-fore lock (a fore limb alone across a head-first
     /// transfer onto a trunk, its partner with no step onto it: see
     /// [`Self::lone_fore_locked`]): the farthest arc length in the range

@@ -71,6 +71,16 @@ pub struct Transfer {
     pub side_turned: f32,
 }
 
+impl Transfer {
+    /// Whether one of the stances recorded since the transfer started (or
+    /// last turned toward its target) was taken again: its steps go round
+    /// a circle ([`Sloth::note_transfer_stance`] gives up at the third).
+    pub fn circling(&self) -> bool {
+        let kept = (self.stance_count as usize).min(STANCES_KEPT);
+        self.stance_visits[..kept].iter().any(|&v| v > 0)
+    }
+}
+
 /// Stances a transfer remembers (see [`Transfer::stance_keys`]): a circle
 /// of steps by two limbs in turn (trunk_branch at 71.7°, 0.2 m: LF and LH)
 /// is a dozen steps long.
