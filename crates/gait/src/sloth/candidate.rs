@@ -385,14 +385,14 @@ impl Sloth {
             // A transfer step goes where the other support is (reach decides).
             p.transfer_step || step >= min_step
         };
-        // A gathering step: no step length or direction (the pair's
-        // lift-off below still holds).
-        if !p.gathering && (!step_ok || dist > p.max_step) {
+        if p.gathering {
+            return true;
+        }
+        if !step_ok || dist > p.max_step {
             return false;
         }
-        if !p.gathering
-            && p.pair
-                .is_some_and(|(pi, p2, _)| p2.distance(self.limbs[pi].grip.point) > p.max_step)
+        if p.pair
+            .is_some_and(|(pi, p2, _)| p2.distance(self.limbs[pi].grip.point) > p.max_step)
         {
             return false;
         }
@@ -650,20 +650,7 @@ impl Sloth {
         } else {
             -a.tangent
         };
-        if p.gathering && !limb.is_fore() && p.kind == SupportKind::Trunk {
-            // A hind limb gathered onto the trunk of a transfer (a stalled
-            // straddler: `Sloth::gather_onto`) lands the margin below the
-            // fore grips on it, whichever way the body travels.
-            let fore_bottom = [Limb::LF, Limb::RF]
-                .map(|f| self.limbs[f.index()].grip)
-                .into_iter()
-                .filter(|g| self.transfer.is_some_and(|t| t.trunk == g.support))
-                .map(|g| g.point.dot(axis_up))
-                .fold(f32::INFINITY, f32::min);
-            if approx.dot(axis_up) > fore_bottom - margin {
-                return false;
-            }
-        } else if p.transfer.is_some_and(|t| t.dir < 0.0)
+        if p.transfer.is_some_and(|t| t.dir < 0.0)
             && !limb.is_fore()
             && p.kind == SupportKind::Trunk
         {

@@ -163,13 +163,7 @@ impl Sloth {
                         .is_some_and(|sr| !by_steps || self.range_has_step(env, li, &sr))
             })
         };
-        // A stalled straddler gathering onto the target (`Sloth::gather_onto`)
-        // does not undo the transfer.
-        if self
-            .transfer
-            .is_some_and(|t| undoing(&t) && self.gather_onto(env) != Some(t.to))
-            && lead_in_reach()
-        {
+        if self.transfer.is_some_and(|t| undoing(&t)) && lead_in_reach() {
             search.next_u = g.u - g.sdir;
             search.first_u = search.next_u;
             return search;
