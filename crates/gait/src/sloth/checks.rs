@@ -858,29 +858,7 @@ impl Sloth {
     /// instructions. Nor may a solve be skipped as "surely reachable": the
     /// warm starts lie centimetres from the stances' targets (the body moves
     /// with the step), and within 1–2 cm of them some targets still fail.
-    ///
-    /// A wanderer's plain step ([`STANCE_CHECKS`] stances) solves the end
-    /// stance and the arc's middle point only, in one call
-    /// ([`Self::stances_hold_by`] with `whole_arc` false; its bodies are
-    /// still tested at every arc point): the arc's points rarely decide
-    /// what the end and the middle have not (0.27 % of the steps in
-    /// `wanderers_arc_ik_mostly_agrees_with_the_whole_arc`, all of them
-    /// refused by the whole arc and taken here), and their second call was
-    /// a third of the crowd's step-check IK (issue 26, performance.md's
-    /// seventeenth round). Goal mode solves the whole arc: the scenario
-    /// matrix's junction cases turn on the edges of these checks.
     fn stances_hold(&self, env: &LocoView<'_>, stances: &[StanceCheck]) -> bool {
-        self.stances_hold_by(env, stances, !self.wander)
-    }
-
-    /// [`Self::stances_hold`]: every stance solved (`whole_arc`), or a
-    /// plain step's end and arc middle only.
-    fn stances_hold_by(
-        &self,
-        env: &LocoView<'_>,
-        stances: &[StanceCheck],
-        whole_arc: bool,
-    ) -> bool {
         let base = CcdParams {
             max_iterations: CHECK_MAX_ITERATIONS,
             ..*env.ccd
@@ -889,13 +867,7 @@ impl Sloth {
         // The end stance (the last), then the arc's points in order.
         let n = stances.len();
         let order: [usize; MAX_STANCES] = std::array::from_fn(|k| (k + n - 1) % n);
-        // A plain step's end stance and its arc's middle point, in one call.
-        let middle = [STANCE_CHECKS - 1, SWING_CHECKS.len() / 2];
-        let order = if !whole_arc && n == STANCE_CHECKS {
-            &middle[..]
-        } else {
-            &order[..n]
-        };
+        let order = &order[..n];
         // No lane of a stance ended farther off than the polish is tried
         // from ([`reach_check_polish`] fails it as it stands): checked over
         // every lane of a call before any lane is polished (a polish costs
@@ -1248,62 +1220,6 @@ mod tests {
             probes > 5000 && passes > 1000 && end_rejects > 100 && arc_only > 0,
             "{probes} {passes} {end_rejects} {arc_only}"
         );
-    }
-
-    /// Wanderers' step-check IK (the end stance and the arc's middle point,
-    /// [`Sloth::stances_hold`]) against the whole arc's: on every preset,
-    /// for sloths walking the free and steady profiles, each holding limb
-    /// stepped to random grips (as in the test above), where a step's
-    /// stances hold their reach bands the two answer the same for nearly
-    /// all (here 20,601 of 20,656; the other 55 the whole arc refuses and
-    /// the middle takes), and never does the middle refuse a step the whole
-    /// arc takes (its two stances are among the whole arc's, solved alike).
-    #[test]
-    fn wanderers_arc_ik_mostly_agrees_with_the_whole_arc() {
-        let mut rnd = xorshift(0x401d);
-        let (mut probes, mut both, mut middle_only) = (0u32, 0u32, 0u32);
-        for profile in [Profile::Free, Profile::Steady] {
-            walk_presets_with(profile, 7, |kind, view, frame, sloth| {
-                if sloth.turn.is_some() {
-                    return;
-                }
-                for li in 0..4 {
-                    let l = sloth.limbs[li];
-                    if l.phase == LimbPhase::Swinging {
-                        continue;
-                    }
-                    for _ in 0..6 {
-                        let off = Vec3::new(rnd() - 0.5, rnd() - 0.5, rnd() - 0.5) * 0.24;
-                        let grip = l.grip.point + sloth.travel() * (0.5 * rnd() - 0.1) + off;
-                        let steps = [(li, grip, l.grip.normal)];
-                        let arc = StepArc::new(&sloth, view, &steps, l.grip.support, 0.0);
-                        let stance_at = |at: Option<f32>| {
-                            let (grips, tol, offset) = arc.parts(view, at);
-                            sloth.place_stance(view, grips, tol, offset)
-                        };
-                        let Some(stances) = stances_in_band(view, stance_at) else {
-                            continue;
-                        };
-                        let whole = sloth.stances_hold_by(view, &stances, true);
-                        let middle = sloth.stances_hold_by(view, &stances, false);
-                        assert!(
-                            middle || !whole,
-                            "{} frame {frame}: limb {li} to {grip}: refused by the middle only",
-                            kind.name()
-                        );
-                        probes += 1;
-                        both += u32::from(whole);
-                        middle_only += u32::from(middle && !whole);
-                    }
-                }
-            });
-        }
-        println!(
-            "{probes} steps' stances: {both} hold by both, {middle_only} by the end and \
-             middle only"
-        );
-        assert!(probes > 2000 && both > 1000, "{probes} {both}");
-        assert!(middle_only * 100 <= probes, "{middle_only} of {probes}");
     }
 
     /// [`Sloth::head_up_by_heading`] against the placed body it spares: on
