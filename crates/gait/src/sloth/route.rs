@@ -108,6 +108,12 @@ const LONE_FORE_END: u8 = 11;
 /// branch `lone27`; two cycles gave the same matrix).
 const LONE_FORE_PLAYOUT: usize = 11;
 
+/// Goal mode, the lone-fore lock: searches failed in a row (one gait cycle:
+/// every limb found no step) after which the transfer's side turns at once
+/// (`Sloth::turn_side_in_lone_lock`), where the re-plan waits two cycles
+/// (docs/scenarios.md, branch `lone32`).
+const LONE_LOCK_STALL: u8 = 4;
+
 /// The arc-length stride of that lookahead's candidates (metres; the
 /// step lookahead's).
 const LONE_FORE_PLAYOUT_STRIDE: f32 = 0.02;
@@ -225,11 +231,22 @@ impl Sloth {
     /// branch_trunk 0.2 m 124.5°, LF alone on the trunk from 18 s, the
     /// turn of 30° ready at every search, refused at both give-ups (51.8 s,
     /// 85.4 s), the circle to the time limit. Made while a limb swung, the
-    /// body jumped 18 mm into the trunk. A lock that does not circle is
-    /// left to the steps (turned at its first search, 0.2 m 137.5°, 155.5°,
-    /// 156°, 0.15 m 151° were lost: main's own steps unlock those).
+    /// body jumped 18 mm into the trunk. Also where the lock has stalled:
+    /// [`LONE_LOCK_STALL`] searches failed in a row (a gait cycle with no
+    /// step), where the re-plan waits two cycles: branch_trunk 0.08 m
+    /// 145.5°, its back-offs clearing the watch's record so the lock never
+    /// circles, the 10° turn ready from 33.9 s after a back-off and made by
+    /// the re-plan only at 39.5 s, too late. A lock whose limbs still step
+    /// is left to the steps (turned at its first search, 0.2 m 137.5°,
+    /// 155.5°, 156°, 0.15 m 151° were lost: main's own steps unlock those;
+    /// their failed searches in a row stay below a cycle while the turn is
+    /// ready).
     pub(super) fn turn_side_in_lone_lock(&mut self, env: &LocoView<'_>) {
-        if self.wander || self.backoff.is_some() || !self.transfer.is_some_and(|t| t.circling()) {
+        if self.wander || self.backoff.is_some() {
+            return;
+        }
+        let stalled = self.failed_searches >= LONE_LOCK_STALL;
+        if !self.transfer.is_some_and(|t| t.circling() || stalled) {
             return;
         }
         let locked = [Limb::LF.index(), Limb::RF.index()]
