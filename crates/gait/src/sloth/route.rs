@@ -108,12 +108,6 @@ const LONE_FORE_END: u8 = 11;
 /// branch `lone27`; two cycles gave the same matrix).
 const LONE_FORE_PLAYOUT: usize = 11;
 
-/// Goal mode, the lone-fore lock: searches failed in a row (one gait cycle:
-/// every limb found no step) after which the transfer's side turns at once
-/// (`Sloth::turn_side_in_lone_lock`), where the re-plan waits two cycles
-/// (docs/scenarios.md, branch `lone32`).
-const LONE_LOCK_STALL: u8 = 4;
-
 /// The arc-length stride of that lookahead's candidates (metres; the
 /// step lookahead's).
 const LONE_FORE_PLAYOUT_STRIDE: f32 = 0.02;
@@ -231,22 +225,11 @@ impl Sloth {
     /// branch_trunk 0.2 m 124.5°, LF alone on the trunk from 18 s, the
     /// turn of 30° ready at every search, refused at both give-ups (51.8 s,
     /// 85.4 s), the circle to the time limit. Made while a limb swung, the
-    /// body jumped 18 mm into the trunk. Also where the lock has stalled:
-    /// [`LONE_LOCK_STALL`] searches failed in a row (a gait cycle with no
-    /// step), where the re-plan waits two cycles: branch_trunk 0.08 m
-    /// 145.5°, its back-offs clearing the watch's record so the lock never
-    /// circles, the 10° turn ready from 33.9 s after a back-off and made by
-    /// the re-plan only at 39.5 s, too late. A lock whose limbs still step
-    /// is left to the steps (turned at its first search, 0.2 m 137.5°,
-    /// 155.5°, 156°, 0.15 m 151° were lost: main's own steps unlock those;
-    /// their failed searches in a row stay below a cycle while the turn is
-    /// ready).
+    /// body jumped 18 mm into the trunk. A lock that does not circle is
+    /// left to the steps (turned at its first search, 0.2 m 137.5°, 155.5°,
+    /// 156°, 0.15 m 151° were lost: main's own steps unlock those).
     pub(super) fn turn_side_in_lone_lock(&mut self, env: &LocoView<'_>) {
-        if self.wander || self.backoff.is_some() {
-            return;
-        }
-        let stalled = self.failed_searches >= LONE_LOCK_STALL;
-        if !self.transfer.is_some_and(|t| t.circling() || stalled) {
+        if self.wander || self.backoff.is_some() || !self.transfer.is_some_and(|t| t.circling()) {
             return;
         }
         let locked = [Limb::LF.index(), Limb::RF.index()]
@@ -331,6 +314,51 @@ impl Sloth {
                 sdir: sr.sdir,
             })
         })
+    }
+
+    /// Goal mode, head first onto a trunk: limb `li` would be the first
+    /// fore limb to take it (range `sr` on `sid`), and after its farthest
+    /// step there (the lookahead's checks) the partner would have no step
+    /// onto the trunk, nor would the footfall order's next steps played out
+    /// give it one ([`Self::playout_unlocks`]): the step would enter the
+    /// lone-fore lock ([`Self::lone_fore_locked`]). The trunk is then
+    /// passed by (`Sloth::next_neighbour`: the limb's search goes on to the
+    /// next neighbour, a retreat, or fails), and the limbs walk on along the
+    /// branch toward the junction. branch_trunk 0.2 m 159.5°: RF took the
+    /// trunk at 8.3 s across 0.38 m, 1 m below the junction on a branch
+    /// 20.5° off the trunk, LF's trunk grips 0.56–0.62 m away to the time
+    /// limit; now RF takes it at 23.2 s from 0.16 m, LF follows, and the
+    /// sloth arrives at 57.9 s (docs/scenarios.md, branch `lone32`).
+    fn first_fore_strands_partner(
+        &self,
+        env: &LocoView<'_>,
+        li: usize,
+        sid: SupportId,
+        sr: &Search,
+    ) -> bool {
+        let limb = Limb::ALL[li];
+        let Some(t) = self.transfer else {
+            return false;
+        };
+        if self.wander
+            || !limb.is_fore()
+            || self.backoff.is_some()
+            || sid != t.trunk
+            || t.to != t.trunk
+            || t.dir < 0.0
+            || self.dir != t.dir
+        {
+            return false;
+        }
+        let partner = if limb == Limb::LF { Limb::RF } else { Limb::LF }.index();
+        if self.limbs[partner].grip.support == t.trunk {
+            return false;
+        }
+        let Some(grip) = self.probe_steps(env, li, sr).next() else {
+            return false;
+        };
+        let next = self.after_steps(env, [(li, grip)]);
+        !(next.partner_has_trunk_step(env, t, partner) || next.playout_unlocks(env, li, t, partner))
     }
 
     /// Whether the fore limb `partner` has a step onto the transfer's trunk.
@@ -555,6 +583,7 @@ impl Sloth {
         } else {
             0
         };
+        let transfer_before = self.transfer;
         while k < neighbours.len() {
             let sid = neighbours[(k + rotate) % neighbours.len()];
             k += 1;
@@ -576,6 +605,12 @@ impl Sloth {
                 continue;
             }
             if let Some(search) = self.neighbour_search(env, li, sid, k as u16) {
+                // Goal mode: not the first fore step onto a trunk its
+                // partner could not follow (the lone-fore lock).
+                if self.first_fore_strands_partner(env, li, sid, &search) {
+                    self.transfer = transfer_before;
+                    continue;
+                }
                 self.limbs[li].search = search;
                 return true;
             }
