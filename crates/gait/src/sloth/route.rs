@@ -316,6 +316,51 @@ impl Sloth {
         })
     }
 
+    /// Goal mode, head first onto a trunk: limb `li` would be the first
+    /// fore limb to take it (range `sr` on `sid`), and after its farthest
+    /// step there (the lookahead's checks) the partner would have no step
+    /// onto the trunk, nor would the footfall order's next steps played out
+    /// give it one ([`Self::playout_unlocks`]): the step would enter the
+    /// lone-fore lock ([`Self::lone_fore_locked`]). The trunk is then
+    /// passed by (`Sloth::next_neighbour`: the limb's search goes on to the
+    /// next neighbour, a retreat, or fails), and the limbs walk on along the
+    /// branch toward the junction. branch_trunk 0.2 m 159.5°: RF took the
+    /// trunk at 8.3 s across 0.38 m, 1 m below the junction on a branch
+    /// 20.5° off the trunk, LF's trunk grips 0.56–0.62 m away to the time
+    /// limit; now RF takes it at 23.2 s from 0.16 m, LF follows, and the
+    /// sloth arrives at 57.9 s (docs/scenarios.md, branch `lone32`).
+    fn first_fore_strands_partner(
+        &self,
+        env: &LocoView<'_>,
+        li: usize,
+        sid: SupportId,
+        sr: &Search,
+    ) -> bool {
+        let limb = Limb::ALL[li];
+        let Some(t) = self.transfer else {
+            return false;
+        };
+        if self.wander
+            || !limb.is_fore()
+            || self.backoff.is_some()
+            || sid != t.trunk
+            || t.to != t.trunk
+            || t.dir < 0.0
+            || self.dir != t.dir
+        {
+            return false;
+        }
+        let partner = if limb == Limb::LF { Limb::RF } else { Limb::LF }.index();
+        if self.limbs[partner].grip.support == t.trunk {
+            return false;
+        }
+        let Some(grip) = self.probe_steps(env, li, sr).next() else {
+            return false;
+        };
+        let next = self.after_steps(env, [(li, grip)]);
+        !(next.partner_has_trunk_step(env, t, partner) || next.playout_unlocks(env, li, t, partner))
+    }
+
     /// Whether the fore limb `partner` has a step onto the transfer's trunk.
     fn partner_has_trunk_step(
         &self,
@@ -538,6 +583,7 @@ impl Sloth {
         } else {
             0
         };
+        let transfer_before = self.transfer;
         while k < neighbours.len() {
             let sid = neighbours[(k + rotate) % neighbours.len()];
             k += 1;
@@ -559,6 +605,12 @@ impl Sloth {
                 continue;
             }
             if let Some(search) = self.neighbour_search(env, li, sid, k as u16) {
+                // Goal mode: not the first fore step onto a trunk its
+                // partner could not follow (the lone-fore lock).
+                if self.first_fore_strands_partner(env, li, sid, &search) {
+                    self.transfer = transfer_before;
+                    continue;
+                }
                 self.limbs[li].search = search;
                 return true;
             }
