@@ -10,7 +10,9 @@
 //! The first test's cases missed their goal on main 2180e5a (every judge
 //! measure in tolerance). The second test's cases pass on main and were
 //! lost by a side turn made at the lone-fore lock's first search (branch
-//! `lone30`): they must pass.
+//! `lone30`): they must pass. The third test's case missed its goal on
+//! main d71370f: the trunk step was passed by right after a step (no search
+//! failed since), and no later stance had one (branch `lone34`).
 
 use slothsim::sim::TrunkVariant;
 
@@ -38,4 +40,9 @@ fn locks_main_unlocks_by_steps_still_pass() {
         TrunkVariant::ToTrunk,
         &[(150.5, 0.08), (159.5, 0.15), (156.5, 0.2), (137.5, 0.2)],
     );
+}
+
+#[test]
+fn the_trunk_step_is_passed_by_only_once_a_search_has_failed() {
+    common::assert_transfers_pass(TrunkVariant::ToTrunk, &[(129.8, 0.2)]);
 }

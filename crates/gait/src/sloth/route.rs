@@ -329,6 +329,14 @@ impl Sloth {
     /// 20.5° off the trunk, LF's trunk grips 0.56–0.62 m away to the time
     /// limit; now RF takes it at 23.2 s from 0.16 m, LF follows, and the
     /// sloth arrives at 57.9 s (docs/scenarios.md, branch `lone32`).
+    ///
+    /// Only where a search has failed since the last step taken
+    /// (`Sloth::failed_searches` > 0); with none failed, the trunk step is
+    /// taken as before. branch_trunk 0.2 m 129.8°: the step was passed by
+    /// once at 30.1 s, right after a step (no search failed), and no later
+    /// stance had a trunk step before 97 s (back-offs round and round); now
+    /// RF takes it and the sloth arrives at 63.5 s, as before the rule
+    /// (docs/scenarios.md, branch `lone34`).
     fn first_fore_strands_partner(
         &self,
         env: &LocoView<'_>,
@@ -352,6 +360,11 @@ impl Sloth {
         }
         let partner = if limb == Limb::LF { Limb::RF } else { Limb::LF }.index();
         if self.limbs[partner].grip.support == t.trunk {
+            return false;
+        }
+        // Only where a search has failed since the last step taken: with
+        // none failed the trunk step is taken as before the rule.
+        if self.failed_searches == 0 {
             return false;
         }
         let Some(grip) = self.probe_steps(env, li, sr).next() else {
