@@ -185,7 +185,7 @@ impl Sloth {
     fn lone_fore_across(&self, li: usize) -> Option<(super::Transfer, usize)> {
         let limb = Limb::ALL[li];
         let t = self.transfer?;
-        let partner = if limb == Limb::LF { Limb::RF } else { Limb::LF }.index();
+        let partner = limb.opposite().index();
         (limb.is_fore()
             && t.to == t.trunk
             && t.dir > 0.0
@@ -355,16 +355,14 @@ impl Sloth {
             || t.to != t.trunk
             || t.dir < 0.0
             || self.dir != t.dir
+            // Only where a search has failed since the last step taken:
+            // with none failed the trunk step is taken as before the rule.
+            || self.failed_searches == 0
         {
             return false;
         }
-        let partner = if limb == Limb::LF { Limb::RF } else { Limb::LF }.index();
+        let partner = limb.opposite().index();
         if self.limbs[partner].grip.support == t.trunk {
-            return false;
-        }
-        // Only where a search has failed since the last step taken: with
-        // none failed the trunk step is taken as before the rule.
-        if self.failed_searches == 0 {
             return false;
         }
         let Some(grip) = self.probe_steps(env, li, sr).next() else {
