@@ -4,8 +4,9 @@
 //! back-off); the lookahead keeps a step from leaving no limb a step after
 //! it; committed steps let the steady profile's swings overlap.
 
+use glam::{Quat, Vec3};
 use slothsim_rig::Limb;
-use slothsim_scene::{SupportId, SupportKind};
+use slothsim_scene::{BoxOverlap, LineTrace, SupportId, SupportKind, TraceHit};
 
 use crate::path::project;
 
@@ -13,8 +14,8 @@ use super::body::{BodySide, body_offset};
 use super::candidate::CandidateAt;
 use super::route::search_ahead;
 use super::{
-    Fallback, Grip, LimbPhase, LocoView, MAX_TRACES, NearRing, Search, Sloth, Status, StuckCause,
-    TraceBatch,
+    Candidate, Fallback, Grip, LimbPhase, LocoView, MAX_TRACES, NearRing, Search, Sloth, Status,
+    StuckCause, TraceBatch,
 };
 
 /// Reach-checked step-search candidates per limb per frame.
@@ -790,23 +791,20 @@ pub(super) fn footfall_order_from(env: &LocoView<'_>, li: usize) -> [usize; 4] {
 /// surface (SPEC step 5, formula 4): where no other support's solid lies in
 /// that room, the grip is traced again from its far side. `None`: no room,
 /// or the surface is not there.
-fn trace_in_claw_room(
-    env: &LocoView<'_>,
-    m: &super::Candidate,
-) -> Option<slothsim_scene::TraceHit> {
+fn trace_in_claw_room(env: &LocoView<'_>, m: &Candidate) -> Option<TraceHit> {
     let room = env.cfg.claw_length_m + CLAW_ROOM_MARGIN;
-    let rotation = glam::Quat::from_rotation_arc(glam::Vec3::Z, m.out);
-    let bx = slothsim_scene::BoxOverlap {
+    // The room: a cube of the room's side standing on the grip, facing out.
+    let bx = BoxOverlap {
         center: m.point + m.out * (0.5 * room),
-        half_extents: glam::Vec3::new(0.5 * room, 0.5 * room, 0.5 * room),
-        rotation,
+        half_extents: Vec3::splat(0.5 * room),
+        rotation: Quat::from_rotation_arc(Vec3::Z, m.out.normalize()),
     };
     let mut found = Vec::new();
     env.query.overlap_box(&bx, &mut found).ok()?;
     if found.iter().any(|&s| s != m.support) {
         return None;
     }
-    let line = slothsim_scene::LineTrace {
+    let line = LineTrace {
         origin: m.point + m.out * room,
         dir: -m.out,
         max_dist: 2.0 * room,
