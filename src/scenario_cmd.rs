@@ -70,7 +70,7 @@ pub struct ScenarioArgs {
     /// Preset parameter in metres (parallel: gap; trunk: radius).
     #[arg(long, allow_hyphen_values = true)]
     param: Option<f32>,
-    /// branch_trunk: the trunk's radius in metres (0.05–0.3; default 0.15).
+    /// branch_trunk: the trunk's radius in metres (0.05–0.21; default 0.15).
     #[arg(long, allow_hyphen_values = true)]
     trunk_radius: Option<f32>,
     /// branch_end: the branch's radius in metres (0.02–0.08; default 0.02).

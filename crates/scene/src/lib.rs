@@ -29,7 +29,7 @@ pub use model::{
 pub use percentile::percentile_sorted;
 pub use presets::{
     BRANCH_TRUNK_RADIUS, BRANCH_TRUNK_RADIUS_RANGE, Goal, PRESET_BRANCH_RADIUS, PRESET_HEIGHT,
-    Preset, PresetKind, StartHint,
+    Preset, PresetKind, StartHint, THICK_TRUNK_REASON, TRUNK_RADIUS_RANGE,
 };
 pub use trace::{
     BoxOverlap, BvhStats, LineTrace, SceneQuery, SphereSweep, TraceHit, TraceRequest, TraceResult,

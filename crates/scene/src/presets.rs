@@ -37,8 +37,17 @@ pub const BRANCH_END_RADIUS_RANGE: [f32; 2] = [0.02, 0.08];
 /// The branch_trunk preset's trunk radius unless given (metres).
 pub const BRANCH_TRUNK_RADIUS: f32 = 0.15;
 
-/// The trunk radii the branch_trunk preset takes (metres).
-pub const BRANCH_TRUNK_RADIUS_RANGE: [f32; 2] = [0.05, 0.3];
+/// The trunk radii the branch_trunk preset takes (metres): those at which
+/// both transfers (branch → trunk and trunk → branch) were measured to pass
+/// at every branch angle (issue 24; docs/scenarios.md "Thick trunks").
+pub const BRANCH_TRUNK_RADIUS_RANGE: [f32; 2] = [0.05, 0.21];
+
+/// The radii the trunk preset takes (its base radius, metres): those at
+/// which climbing up, down and around was measured to pass (issue 24).
+pub const TRUNK_RADIUS_RANGE: [f32; 2] = [0.1, 0.27];
+
+/// Why a preset takes no thicker trunk (in the out-of-range error).
+pub const THICK_TRUNK_REASON: &str = "the rig's limbs do not reach around a thicker trunk";
 
 /// The preset families.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
@@ -99,12 +108,22 @@ impl PresetKind {
         match self {
             PresetKind::Turn => Some(("angle", "deg", [60.0, 180.0], 135.0)),
             PresetKind::Parallel => Some(("gap", "m", [0.08, 0.5], 0.25)),
-            PresetKind::Trunk => Some(("radius", "m", [0.1, 0.4], 0.15)),
+            PresetKind::Trunk => Some(("radius", "m", TRUNK_RADIUS_RANGE, 0.15)),
             PresetKind::HeightChange => Some(("angle", "deg", [110.0, 220.0], 160.0)),
             PresetKind::BranchTrunk => Some(("angle", "deg", [60.0, 160.0], 110.0)),
             PresetKind::Pole => None,
             PresetKind::BranchEnd => Some(("angle", "deg", [-30.0, 30.0], 0.0)),
         }
+    }
+}
+
+/// The out-of-range error's reason for a trunk thicker than a preset takes
+/// (`thicker`), else nothing.
+fn thicker_reason(thicker: bool) -> String {
+    if thicker {
+        format!(": {THICK_TRUNK_REASON}")
+    } else {
+        String::new()
     }
 }
 
@@ -186,7 +205,10 @@ impl Preset {
                     field: "trunk_radius",
                     value: v as f64,
                     allowed: if kind == PresetKind::BranchTrunk {
-                        format!("{rlo}..={rhi} m for preset `branch_trunk`")
+                        format!(
+                            "{rlo}..={rhi} m for preset `branch_trunk`{}",
+                            thicker_reason(v > rhi)
+                        )
                     } else {
                         format!(
                             "none: only preset `branch_trunk` takes a trunk radius, not `{}`",
@@ -211,7 +233,11 @@ impl Preset {
                     return Err(SceneError::OutOfRange {
                         field: name,
                         value: v as f64,
-                        allowed: format!("{lo}..={hi} {unit} for preset `{}`", kind.name()),
+                        allowed: format!(
+                            "{lo}..={hi} {unit} for preset `{}`{}",
+                            kind.name(),
+                            thicker_reason(kind == PresetKind::Trunk && v > hi)
+                        ),
                     });
                 }
                 Some(v)
@@ -424,13 +450,31 @@ mod tests {
         }
         let default = Preset::new(PresetKind::BranchTrunk, None).unwrap();
         assert_eq!(default.trunk_radius, Some(BRANCH_TRUNK_RADIUS));
-        let err = Preset::with_trunk_radius(PresetKind::BranchTrunk, None, Some(0.5))
+        let [lo, hi] = BRANCH_TRUNK_RADIUS_RANGE;
+        let err = Preset::with_trunk_radius(PresetKind::BranchTrunk, None, Some(hi + 0.01))
             .unwrap_err()
             .to_string();
         assert!(
-            err.contains("trunk_radius") && err.contains("0.05..=0.3"),
+            err.contains("trunk_radius")
+                && err.contains(&format!("{lo}..={hi}"))
+                && err.contains(THICK_TRUNK_REASON),
             "{err}"
         );
+        Preset::with_trunk_radius(PresetKind::BranchTrunk, None, Some(hi)).unwrap();
+        let [lo, hi] = TRUNK_RADIUS_RANGE;
+        let err = Preset::new(PresetKind::Trunk, Some(hi + 0.01))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("radius")
+                && err.contains(&format!("{lo}..={hi}"))
+                && err.contains(THICK_TRUNK_REASON),
+            "{err}"
+        );
+        let err = Preset::new(PresetKind::Trunk, Some(lo - 0.01))
+            .unwrap_err()
+            .to_string();
+        assert!(!err.contains(THICK_TRUNK_REASON), "{err}");
         let err = Preset::with_trunk_radius(PresetKind::Turn, None, Some(0.1))
             .unwrap_err()
             .to_string();

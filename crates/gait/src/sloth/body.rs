@@ -283,6 +283,30 @@ pub(super) fn support_frame(
     }
 }
 
+/// Goal mode: around a trunk a grip sits at most this far to the side of
+/// the body's midplane (metres): where the grips at `trunk_grip_angle_deg`
+/// (60°) sit on a 0.2 m trunk, the thickest the matrix checks. On a thicker
+/// trunk the angle grows so the grips stay this close (issue 24): at the
+/// fixed 60° the grips on a 0.25 m trunk sit 0.125 m out and the limbs
+/// splay to their reach's edge (branch → trunk passed 12 of 50 angles at
+/// 0.25 m, 29 with this cap; at 0.23 m 38 → 46; `trunk --param` climbs up,
+/// down and around to 0.25 m before, to 0.29 m with it). Wander mode keeps
+/// the configured angle (the crowd's figures were measured with it).
+pub(super) const TRUNK_GRIP_LATERAL_MAX_M: f32 = 0.1;
+
+/// The angle of the grip around a trunk of `radius` (metres) from the limb's
+/// side toward the body (radians): `trunk_angle` (the configured one), or
+/// more where that would put the grip farther than
+/// [`TRUNK_GRIP_LATERAL_MAX_M`] to the side of the body's midplane
+/// (goal mode: [`Sloth::trunk_grip_angle`]).
+pub(super) fn trunk_grip_angle(trunk_angle: f32, radius: f32) -> f32 {
+    if radius * trunk_angle.cos() > TRUNK_GRIP_LATERAL_MAX_M {
+        (TRUNK_GRIP_LATERAL_MAX_M / radius).acos()
+    } else {
+        trunk_angle
+    }
+}
+
 /// Which way from the axis a limb's grip sits: its side, turned toward the
 /// body on trunks.
 pub(super) fn grip_out(kind: SupportKind, limb: Limb, f: Vec3, up: Vec3, trunk_angle: f32) -> Vec3 {
@@ -307,6 +331,18 @@ pub(super) fn rotation_from(f: Vec3, up: Vec3) -> Quat {
 }
 
 impl Sloth {
+    /// The angle of a grip around a trunk of `radius` (metres) from the
+    /// limb's side toward the body (radians): goal mode
+    /// [`trunk_grip_angle`], wander mode the configured angle.
+    pub(super) fn trunk_grip_angle(&self, env: &LocoView<'_>, radius: f32) -> f32 {
+        let angle = env.cfg.trunk_grip_angle_deg.to_radians();
+        if self.wander {
+            angle
+        } else {
+            trunk_grip_angle(angle, radius)
+        }
+    }
+
     /// BodyAverage: advance swing arcs, then place the body (formulas 6, 7), smoothed.
     pub fn body_average(&mut self, env: &LocoView<'_>, dt: f32) {
         for (li, l) in self.limbs.iter_mut().enumerate() {
@@ -915,6 +951,27 @@ impl Sloth {
 mod tests {
     use super::*;
     use crate::sloth::test_util::{walk_presets, xorshift};
+
+    /// The grip angle around a trunk is the configured one up to 0.2 m (bit
+    /// for bit: the matrix's radii keep their figures) and grows beyond so
+    /// the grip stays [`TRUNK_GRIP_LATERAL_MAX_M`] from the body's midplane.
+    #[test]
+    fn trunk_grip_angle_keeps_thick_trunk_grips_close() {
+        let g = crate::LocomotionConfig::default()
+            .trunk_grip_angle_deg
+            .to_radians();
+        for r in [0.05f32, 0.08, 0.15, 0.2] {
+            assert_eq!(trunk_grip_angle(g, r).to_bits(), g.to_bits(), "r {r}");
+        }
+        for r in [0.201f32, 0.25, 0.3] {
+            let a = trunk_grip_angle(g, r);
+            assert!(a > g, "r {r}");
+            assert!(
+                (r * a.cos() - TRUNK_GRIP_LATERAL_MAX_M).abs() < 1e-6,
+                "r {r}"
+            );
+        }
+    }
 
     /// The body placed from the grips is continuous in them where two grips
     /// coincide (issue 24: a turn left a crowd sloth's LH 0.7 mm from LF's

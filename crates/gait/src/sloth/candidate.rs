@@ -233,7 +233,7 @@ impl Sloth {
             _ => self.body_pos - a.point,
         };
         let transfer_step = transfer.is_some() && sid != self.limbs[li].grip.support;
-        let grip_angle = env.cfg.trunk_grip_angle_deg.to_radians();
+        let grip_angle = self.trunk_grip_angle(env, a.radius);
         // Body forward is the travel direction × dir (tail first when dir < 0).
         let frame_out = |side: Vec3| {
             let (f, up) = support_frame(s.kind, a.tangent * (sdir * self.dir), a.tangent, side);

@@ -9,7 +9,7 @@ use slothsim_scene::{SupportId, SupportKind};
 
 use crate::path::{axis_at, project};
 
-use super::body::{grip_out, rotation_from, support_frame};
+use super::body::{grip_out, rotation_from, support_frame, trunk_grip_angle};
 use super::checks::{STANCE_IK_TOLERANCE, reach_check};
 use super::{Grip, LimbPhase, LimbState, LocoView, Search, Sloth, SpawnHint, Status};
 
@@ -77,13 +77,14 @@ impl Sloth {
             let along = env.rig.neutral_tip_ms[limb.index()].z * 0.9;
             let u = (c.u + along * f.dot(c.tangent).signum()).clamp(margin, len - margin);
             let a = axis_at(s, u);
-            let out = grip_out(
-                s.kind,
-                limb,
-                f,
-                up,
-                env.cfg.trunk_grip_angle_deg.to_radians(),
-            );
+            // Goal mode (a goal given) as `Sloth::trunk_grip_angle`.
+            let angle = env.cfg.trunk_grip_angle_deg.to_radians();
+            let angle = if goal.is_some() {
+                trunk_grip_angle(angle, a.radius)
+            } else {
+                angle
+            };
+            let out = grip_out(s.kind, limb, f, up, angle);
             let l = &mut limbs[limb.index()];
             l.grip = Grip {
                 point: a.point + out * a.radius,
