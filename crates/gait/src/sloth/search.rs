@@ -98,12 +98,17 @@ impl Sloth {
             let Ok(Some(traced)) = batch.results[i] else {
                 continue;
             };
-            // Another support within the trace's standoff (a parallel branch,
-            // a fork's other limb) hides the grip: traced again from the
-            // claw's room off the surface, where there is room.
+            // Goal mode: another support within the trace's standoff (a
+            // parallel branch, a fork's other limb) hides the grip: traced
+            // again from the claw's room off the surface, where there is room.
+            // Wanderers keep refusing such grips (with them a 5,000-sloth
+            // crowd's body entered a support by 76 mm: docs/scenarios.md).
             let hit = if traced.support == m.support {
                 traced
-            } else if let Some(hit) = trace_in_claw_room(env, &m) {
+            } else if let Some(hit) = (!self.wander)
+                .then(|| trace_in_claw_room(env, &m))
+                .flatten()
+            {
                 hit
             } else {
                 continue;
