@@ -299,6 +299,26 @@ fn parallel_branches_change_from_one_to_the_other() {
     }
 }
 
+/// Branches closer than the step search's trace standoff (0.15 m off the
+/// surface): the other branch hid every grip on the side facing it, and at
+/// gaps under 0.15 m the hind limb on that side never stepped again (each
+/// of these gaps failed on main 0d0f6ba). Where the claw and hand have room
+/// between the two (`claw_length_m` + 1 cm), the grip is traced again from
+/// inside that room (`search.rs` `trace_in_claw_room`).
+#[test]
+fn parallel_branches_closer_than_the_trace_standoff() {
+    for gap in [0.1091, 0.1191, 0.1263, 0.1317, 0.1389, 0.1426, 0.1473] {
+        let r = run("parallel", Some(gap), TrunkVariant::Up, Profile::Free);
+        assert!(r.verdict.pass, "gap {gap}: {:?}", r.verdict);
+        assert_measures_within_issue_limits(&r);
+        assert_eq!(
+            r.observations.last().unwrap().limbs[0].support.0,
+            1,
+            "gap {gap}"
+        );
+    }
+}
+
 #[test]
 fn branch_to_trunk_head_up_inside_the_thesis_range() {
     // transfer_to_trunk: fore limbs take the trunk above the hind limbs, the

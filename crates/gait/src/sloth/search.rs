@@ -4,8 +4,9 @@
 //! back-off); the lookahead keeps a step from leaving no limb a step after
 //! it; committed steps let the steady profile's swings overlap.
 
+use glam::{Quat, Vec3};
 use slothsim_rig::Limb;
-use slothsim_scene::{SupportId, SupportKind};
+use slothsim_scene::{BoxOverlap, LineTrace, SupportId, SupportKind, TraceHit};
 
 use crate::path::project;
 
@@ -13,8 +14,8 @@ use super::body::{BodySide, body_offset};
 use super::candidate::CandidateAt;
 use super::route::search_ahead;
 use super::{
-    Fallback, Grip, LimbPhase, LocoView, MAX_TRACES, NearRing, Search, Sloth, Status, StuckCause,
-    TraceBatch,
+    Candidate, Fallback, Grip, LimbPhase, LocoView, MAX_TRACES, NearRing, Search, Sloth, Status,
+    StuckCause, TraceBatch,
 };
 
 /// Reach-checked step-search candidates per limb per frame.
@@ -35,6 +36,11 @@ const RECHECK_DISTANCE: f32 = 1e-4;
 
 /// See [`RECHECK_DISTANCE`].
 const RECHECK_NORMAL_COS: f32 = 0.9999;
+
+/// The room a grip needs off its support's surface beyond the claw's length
+/// (the hand's thickness), clear of every other support, when another
+/// support hides it from the step search's trace ([`trace_in_claw_room`]).
+const CLAW_ROOM_MARGIN: f32 = 0.01;
 
 /// Wander mode: stop after this many turn-backs in a row without a step.
 const MAX_STALLED_TURNS: u8 = 2;
@@ -89,7 +95,22 @@ impl Sloth {
             if chosen[li] || self.limbs[li].phase != LimbPhase::Searching {
                 continue;
             }
-            let Ok(Some(hit)) = batch.results[i] else {
+            let Ok(Some(traced)) = batch.results[i] else {
+                continue;
+            };
+            // Goal mode: another support within the trace's standoff (a
+            // parallel branch, a fork's other limb) hides the grip: traced
+            // again from the claw's room off the surface, where there is room.
+            // Wanderers keep refusing such grips (with them a 5,000-sloth
+            // crowd's body entered a support by 76 mm: docs/scenarios.md).
+            let hit = if traced.support == m.support {
+                traced
+            } else if let Some(hit) = (!self.wander)
+                .then(|| trace_in_claw_room(env, &m))
+                .flatten()
+            {
+                hit
+            } else {
                 continue;
             };
             if hit.support != m.support || hit.normal.dot(m.out) < 0.3 {
@@ -764,6 +785,40 @@ pub(super) fn footfall_order_from(env: &LocoView<'_>, li: usize) -> [usize; 4] {
         da.total_cmp(&db)
     });
     order
+}
+
+/// The confirming trace of candidate `m` for a grip that another support
+/// hides: that trace starts `TRACE_STANDOFF` off the support, so a parallel
+/// branch or a fork's other limb within that distance of the grip's side is
+/// hit first (at `parallel` gaps under 0.15 m every grip on the side facing
+/// the other branch was refused, and the hind limb there never stepped again).
+/// The claw and hand need `claw_length_m` + [`CLAW_ROOM_MARGIN`] off the
+/// surface (SPEC step 5, formula 4): where no other support's solid lies in
+/// that room, the grip is traced again from its far side. `None`: no room,
+/// or the surface is not there.
+fn trace_in_claw_room(env: &LocoView<'_>, m: &Candidate) -> Option<TraceHit> {
+    let room = env.cfg.claw_length_m + CLAW_ROOM_MARGIN;
+    // The room: a cube of the room's side standing on the grip, facing out.
+    let bx = BoxOverlap {
+        center: m.point + m.out * (0.5 * room),
+        half_extents: Vec3::splat(0.5 * room),
+        rotation: Quat::from_rotation_arc(Vec3::Z, m.out.normalize()),
+    };
+    let mut found = Vec::new();
+    env.query.overlap_box(&bx, &mut found).ok()?;
+    if found.iter().any(|&s| s != m.support) {
+        return None;
+    }
+    let line = LineTrace {
+        origin: m.point + m.out * room,
+        dir: -m.out,
+        max_dist: 2.0 * room,
+    };
+    env.query
+        .line(&line)
+        .ok()
+        .flatten()
+        .filter(|h| h.support == m.support)
 }
 
 #[cfg(test)]
