@@ -31,6 +31,13 @@ const COLD_RETRY_MOVE: f32 = 0.02;
 /// 3.0 mm with up to three.
 const PULL_STEPS: usize = 3;
 
+/// The fractions of a body pull tried in turn (see [`Sloth::pull_to_grips`]):
+/// the whole pull, then half and a quarter of it where the whole one leaves
+/// the worst planted claw no closer. The whole pull first, so a pull that
+/// helps is the one it always was (the extra solves run only where it was
+/// rejected).
+const PULL_FRACTIONS: [f32; 3] = [1.0, 0.5, 0.25];
+
 /// See [`COLD_RETRY_MOVE`] (metres).
 const COLD_RETRY_GAIN: f32 = 5e-4;
 
@@ -286,7 +293,8 @@ impl Sloth {
     /// Grips must not slide (SPEC): where the averaged body leaves a planted
     /// claw short of its grip (the step checks sample a swing at a few arc
     /// points only), the body is moved by the planted limbs' mean residual
-    /// and the limbs solved again; kept only if that brings the claws closer.
+    /// (or a part of it, see [`Sloth::pull_to_grips`]) and the limbs solved
+    /// again; kept only if that brings the worst claw closer.
     pub fn solve_limbs(&mut self, env: &LocoView<'_>) -> u32 {
         let iterations = self.solve_limbs_with(env, env.ccd);
         self.pull_to_grips(env, iterations)
@@ -332,6 +340,14 @@ impl Sloth {
     /// The second half of [`Sloth::solve_limbs`] after a first solve of
     /// `iterations` sweeps: the body pulled toward planted claws left short,
     /// again while that brings them closer (at most [`PULL_STEPS`] times).
+    ///
+    /// A pull that does not bring the worst planted claw closer is tried
+    /// again at [`PULL_FRACTIONS`] of its length (a backtracking line
+    /// search); the first that does is kept. Where two planted claws pinned
+    /// at their limits want the body moved in opposite ways, the whole pull
+    /// holds one claw and leaves the other shorter than the first was, while
+    /// a part of it shares the shortfall between them (docs/locomotion.md,
+    /// "Known slip at seed 5").
     fn pull_to_grips(&mut self, env: &LocoView<'_>, mut iterations: u32) -> u32 {
         for _ in 0..PULL_STEPS {
             let (residual, err) = self.planted_residual();
@@ -339,10 +355,17 @@ impl Sloth {
                 break;
             }
             let saved = (self.body_pos, self.limbs);
-            self.body_pos += residual;
-            iterations += self.solve_limbs_with(env, env.ccd);
-            if self.planted_residual().1 >= err {
+            let mut closer = false;
+            for f in PULL_FRACTIONS {
+                self.body_pos = saved.0 + residual * f;
+                iterations += self.solve_limbs_with(env, env.ccd);
+                if self.planted_residual().1 < err {
+                    closer = true;
+                    break;
+                }
                 (self.body_pos, self.limbs) = saved;
+            }
+            if !closer {
                 break;
             }
         }
@@ -633,5 +656,91 @@ impl Sloth {
             l.joints = Some([j1, j2, j3]);
             l.effector = effector;
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use slothsim_rig::Limb;
+    use slothsim_scene::PresetKind;
+
+    use super::super::test_util::{preset_sloth, xorshift};
+    use super::*;
+
+    /// The largest planted claw-to-grip distance.
+    fn worst_grip_error(s: &Sloth) -> f32 {
+        s.limbs
+            .iter()
+            .filter(|l| l.phase != LimbPhase::Swinging)
+            .map(|l| l.grip.point.distance(l.effector))
+            .fold(0.0, f32::max)
+    }
+
+    /// Both hind claws planted at the edge of their reach, in opposite
+    /// directions (the seed-5 slip of docs/locomotion.md): LH's grip 3.5 to
+    /// 6.5 mm beyond its reach, RH's up to 1.4 mm beyond (within the stance
+    /// tolerance, so the pull follows LH alone). Pulling the body by LH's
+    /// whole residual holds LH but leaves RH farther off than LH was (the
+    /// whole pull is rejected); a part of it shares the shortfall, so the
+    /// solve leaves the worst planted claw at least 0.5 mm nearer its grip
+    /// than without a pull (11 of the 32 cases; the old all-or-nothing pull
+    /// kept their error as it was). Directions drawn at random about the
+    /// body's sideways axis; in every case the pull leaves the worst claw no worse off.
+    #[test]
+    fn a_pull_rejected_whole_is_taken_in_part() {
+        let (env, base) = preset_sloth(PresetKind::BranchEnd);
+        let view = env.view();
+        let mut rnd = xorshift(36);
+        let (a, b) = (Limb::LH.index(), Limb::RH.index());
+        let mut rejected = 0;
+        for case in 0..32 {
+            let mut sloth = base;
+            sloth.solve_limbs(&view);
+            // The body's sideways axis, toward LH's claw.
+            let x = sloth.body_rot * Vec3::X;
+            let apart = sloth.limbs[a].effector - sloth.limbs[b].effector;
+            let side = if x.dot(apart) >= 0.0 { x } else { -x };
+            let tilt = Vec3::new(rnd() - 0.5, rnd() - 0.5, rnd() - 0.5) * 0.8;
+            let u = (side + tilt).normalize();
+            // Each hind claw as far along ±u as it reaches.
+            sloth.limbs[a].target = sloth.limbs[a].root + u;
+            sloth.limbs[b].target = sloth.limbs[b].root - u;
+            sloth.solve_limbs_with(&view, view.ccd);
+            let over_a = 0.0035 + 0.003 * rnd();
+            let over_b = 0.0014 * rnd();
+            let grips = [
+                (a, sloth.limbs[a].effector + u * over_a),
+                (b, sloth.limbs[b].effector - u * over_b),
+            ];
+            for (li, p) in grips {
+                sloth.limbs[li].target = p;
+                sloth.limbs[li].grip.point = p;
+            }
+            assert!(sloth.limbs.iter().all(|l| l.phase != LimbPhase::Swinging));
+            // The solve without a pull, and with the whole pull only.
+            let mut plain = sloth;
+            plain.solve_limbs_with(&view, view.ccd);
+            let before = worst_grip_error(&plain);
+            let mut whole = plain;
+            whole.body_pos += whole.planted_residual().0;
+            whole.solve_limbs_with(&view, view.ccd);
+            let whole_rejected = worst_grip_error(&whole) >= before;
+            let mut pulled = sloth;
+            pulled.solve_limbs(&view);
+            let after = worst_grip_error(&pulled);
+            assert!(after.is_finite() && pulled.body_pos.is_finite());
+            assert!(after <= before, "case {case}: {before} -> {after}");
+            if whole_rejected && before > STANCE_IK_TOLERANCE {
+                rejected += 1;
+                assert!(
+                    after < before - 0.0005,
+                    "case {case}: whole pull rejected, {before} -> {after} m"
+                );
+            }
+        }
+        assert!(
+            rejected >= 6,
+            "{rejected} of 32 cases reject the whole pull"
+        );
     }
 }
