@@ -177,11 +177,16 @@ impl Sloth {
         };
         let a = env.adjacency.axis_at(env.scene().support(at.support), at.u);
         let gathering = self.gathering(env, at.limb, at.support);
-        if !gathering && self.surely_too_far(env, at, &a) {
+        let converge = !gathering
+            && !at.retreat
+            && self.wander
+            && at.support == g.support
+            && self.converge_toward(env, at.limb).is_some();
+        if !gathering && !converge && self.surely_too_far(env, at, &a) {
             return None;
         }
         let mut p = self.place(env, at, a);
-        p.gathering = gathering;
+        p.gathering = gathering || (converge && self.converging(env, at.limb, at.support, p.grip));
         if let Some(toward) = closing {
             p.travel = toward;
             p.closing = true;
