@@ -177,16 +177,11 @@ impl Sloth {
         };
         let a = env.adjacency.axis_at(env.scene().support(at.support), at.u);
         let gathering = self.gathering(env, at.limb, at.support);
-        let converge = !gathering
-            && !at.retreat
-            && self.wander
-            && at.support == g.support
-            && self.converge_toward(env, at.limb).is_some();
-        if !gathering && !converge && self.surely_too_far(env, at, &a) {
+        if !gathering && self.surely_too_far(env, at, &a) {
             return None;
         }
         let mut p = self.place(env, at, a);
-        p.gathering = gathering || (converge && self.converging(env, at.limb, at.support, p.grip));
+        p.gathering = gathering;
         if let Some(toward) = closing {
             p.travel = toward;
             p.closing = true;

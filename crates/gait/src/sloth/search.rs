@@ -4,11 +4,10 @@
 //! back-off); the lookahead keeps a step from leaving no limb a step after
 //! it; committed steps let the steady profile's swings overlap.
 
-use glam::Vec3;
 use slothsim_rig::Limb;
 use slothsim_scene::{SupportId, SupportKind};
 
-use crate::path::{axis_at, project};
+use crate::path::project;
 
 use super::body::{BodySide, body_offset};
 use super::candidate::CandidateAt;
@@ -17,14 +16,6 @@ use super::{
     Fallback, Grip, LimbPhase, LocoView, MAX_TRACES, NearRing, Search, Sloth, Status, StuckCause,
     TraceBatch,
 };
-
-/// A converging step ([`Sloth::converging`]) ends at least this much (m)
-/// nearer the branch its straddle gathers on.
-const CONVERGE_MIN_M: f32 = 0.02;
-
-/// Where [`Sloth::converge_toward`] compares the two branches' gap (m
-/// either side of the grip along its branch).
-const CONVERGE_PROBE_M: f32 = 0.1;
 
 /// Reach-checked step-search candidates per limb per frame.
 const MAX_REACH_CHECKS_PER_FRAME: u32 = 8;
@@ -322,17 +313,9 @@ impl Sloth {
             // gathering limb: on along its own support, `gather_search`).
             if sr.goal_first {
                 let neighbour = sr.neighbour;
-                // A converging limb (`converge_toward`): along its branch
-                // toward where it meets the one its straddle gathers on.
-                let mut g = self.limbs[li].grip;
-                if self.wander
-                    && let Some((_, sdir)) = self.converge_toward(env, li)
-                {
-                    g.sdir = sdir;
-                }
                 self.limbs[li].search = Search {
                     neighbour,
-                    ..search_ahead(env, g)
+                    ..search_ahead(env, self.limbs[li].grip)
                 };
                 continue;
             }
@@ -706,66 +689,6 @@ impl Sloth {
         })
     }
 
-    /// Wander mode, a stalled straddler split two and two over two
-    /// branches ([`Self::gather_onto`] names `T`, the pair off it on `O`):
-    /// `T` and the direction along `O` (±1 in arc length) in which `O`
-    /// comes nearer `T`, for limb `li` on `O`. Traced at seed 5 of the
-    /// 5,000 × 300 s crowd: such a pair's roots lie 0.34–0.54 m from `T`
-    /// (the branches part, or run side by side with the body across them),
-    /// out of any gathering step's reach, so the pair first walks along `O`
-    /// toward where it meets `T` ([`Self::converging`]).
-    pub(super) fn converge_toward(
-        &self,
-        env: &LocoView<'_>,
-        li: usize,
-    ) -> Option<(SupportId, f32)> {
-        let t = self.gather_onto(env)?;
-        let g = self.limbs[li].grip;
-        if g.support == t || self.limbs.iter().filter(|l| l.grip.support == t).count() != 2 {
-            return None;
-        }
-        let scene = env.scene();
-        let (ts, os) = (scene.support(t), scene.support(g.support));
-        let gap = |u: f32| {
-            let q = axis_at(os, u).point;
-            let a = project(ts, q);
-            a.point.distance(q) - a.radius
-        };
-        let (ahead, behind) = (gap(g.u + CONVERGE_PROBE_M), gap(g.u - CONVERGE_PROBE_M));
-        if ahead.min(behind) >= gap(g.u) {
-            return None;
-        }
-        Some((t, if ahead < behind { 1.0 } else { -1.0 }))
-    }
-
-    /// A converging step ([`Self::converge_toward`]): limb `li` on its own
-    /// branch to `point`, at least [`CONVERGE_MIN_M`] nearer the branch its
-    /// straddle gathers on than its grip is. Checked as a gathering step
-    /// (no step length, direction or leg order but the same side's
-    /// spacing; reach, head up, the other sloths and the body out of the
-    /// supports decide).
-    pub(super) fn converging(
-        &self,
-        env: &LocoView<'_>,
-        li: usize,
-        sid: SupportId,
-        point: Vec3,
-    ) -> bool {
-        let g = self.limbs[li].grip;
-        if !self.wander || sid != g.support {
-            return false;
-        }
-        let Some((t, _)) = self.converge_toward(env, li) else {
-            return false;
-        };
-        let ts = env.scene().support(t);
-        let gap = |q: Vec3| {
-            let a = project(ts, q);
-            a.point.distance(q) - a.radius
-        };
-        gap(point) <= gap(g.point) - CONVERGE_MIN_M
-    }
-
     /// A gathering step: limb `li` onto `sid`, the branch a stalled
     /// straddler gathers on ([`Self::gather_onto`]). Its step length and
     /// direction and the leg order (but the same side's spacing) are not
@@ -959,92 +882,6 @@ mod gather_tests {
         assert!(
             cases >= 10 && only_gathering > 0 && 2 * gathered >= cases,
             "{cases} straddles, {gathered} gathered, {only_gathering} limbs with gathering steps only"
-        );
-    }
-
-    /// Wanderers walked across the junction of the `turn` preset (angles
-    /// drawn at random), taken where they straddle its two branches two and
-    /// two (all limbs planted, no transfer or turn), then stalled: a limb of
-    /// the pair off the branch they gather on ([`Sloth::gather_onto`])
-    /// walks along its own branch toward the other
-    /// ([`Sloth::converge_toward`]). Every step it has there that only the
-    /// stalled sloth has (a converging step, [`Sloth::converging`]) ends at
-    /// least [`CONVERGE_MIN_M`] nearer the other branch, and some such steps
-    /// exist (the same stance not stalled has none of them: the step length,
-    /// its direction or the leg order refuses them). In goal mode nothing
-    /// converges.
-    #[test]
-    fn a_stalled_two_and_two_straddler_walks_toward_the_junction() {
-        let mut rnd = xorshift(37);
-        let (mut limbs, mut only_converging) = (0, 0);
-        for _ in 0..8 {
-            let angle = 60.0 + 120.0 * rnd();
-            let preset = Preset::new(PresetKind::Turn, Some(angle)).unwrap();
-            let cfg = LocomotionConfig::profile(Profile::Free);
-            let env =
-                LocoEnv::new(cfg, &Rig::sloth(), TraceScene::new(preset.scene.clone())).unwrap();
-            let view = env.view();
-            let hint = SpawnHint::from(preset.start);
-            let mut sloth = Sloth::spawn(&view, &hint, None);
-            sloth.wander = true;
-            let (mut batch, mut near) = (TraceBatch::default(), NearRing::default());
-            for frame in 0..2400 {
-                tick(&mut sloth, &mut near, &view, &mut batch);
-                let a = sloth.limbs[0].grip.support;
-                let on_a = sloth.limbs.iter().filter(|l| l.grip.support == a).count();
-                if frame % 10 != 0
-                    || on_a != 2
-                    || sloth.limbs.iter().any(|l| l.phase != LimbPhase::Planted)
-                    || sloth.transfer.is_some()
-                    || sloth.turn.is_some()
-                {
-                    continue;
-                }
-                let plain = sloth;
-                let mut stalled = plain;
-                stalled.stall_from = Some((stalled.body_pos, 8));
-                stalled.stalled_turns = 0;
-                let Some(t) = stalled.gather_onto(&view) else {
-                    continue;
-                };
-                let mut goal_mode = stalled;
-                goal_mode.wander = false;
-                let ts = view.scene().support(t);
-                let gap = |q: Vec3| {
-                    let a = project(ts, q);
-                    a.point.distance(q) - a.radius
-                };
-                for li in 0..4 {
-                    assert_eq!(plain.converge_toward(&view, li), None, "not stalled");
-                    assert_eq!(goal_mode.converge_toward(&view, li), None, "goal mode");
-                    let Some((_, sdir)) = stalled.converge_toward(&view, li) else {
-                        continue;
-                    };
-                    limbs += 1;
-                    let mut g = stalled.limbs[li].grip;
-                    g.sdir = sdir;
-                    let sr = search_ahead(&view, g);
-                    let mut u = sr.next_u;
-                    while (u - sr.last_u) * sr.sdir >= -1e-6 {
-                        let at = CandidateAt::probe(li, &sr, u);
-                        u -= sr.sdir * 0.01;
-                        let Some((_, c)) = stalled.candidate(&view, &at, &mut 0) else {
-                            continue;
-                        };
-                        if plain.candidate(&view, &at, &mut 0).is_none() {
-                            only_converging += 1;
-                            assert!(
-                                gap(c.point) <= gap(g.point) - CONVERGE_MIN_M + 1e-4,
-                                "angle {angle} limb {li}: a converging step not nearer"
-                            );
-                        }
-                    }
-                }
-            }
-        }
-        assert!(
-            limbs > 0 && only_converging > 0,
-            "{limbs} converging limbs, {only_converging} steps only a converging straddler has"
         );
     }
 }
