@@ -35,33 +35,21 @@ fn draw(rng: &mut Pcg64, [lo, hi]: [f32; 2]) -> f32 {
 #[test]
 fn both_transfers_pass_across_the_accepted_trunk_radii() {
     let mut rng = Pcg64::seed_from_u64(SEED);
-    let mut cases = Vec::new();
     for variant in [TrunkVariant::ToTrunk, TrunkVariant::ToBranch] {
-        for _ in 0..TRANSFER_DRAWS {
-            let r = draw(&mut rng, BRANCH_TRUNK_RADIUS_RANGE);
-            let a = draw(&mut rng, [60.0, 160.0]);
-            let a = if (a * 2.0).fract() == 0.0 {
-                a + 0.01
-            } else {
-                a
-            };
-            cases.push((variant, a, r));
-        }
+        let cases: Vec<(f32, f32)> = (0..TRANSFER_DRAWS)
+            .map(|_| {
+                let r = draw(&mut rng, BRANCH_TRUNK_RADIUS_RANGE);
+                let a = draw(&mut rng, [60.0, 160.0]);
+                let a = if (a * 2.0).fract() == 0.0 {
+                    a + 0.01
+                } else {
+                    a
+                };
+                (a, r)
+            })
+            .collect();
+        common::assert_transfers_pass(variant, &cases);
     }
-    let fails: Vec<String> = cases
-        .par_iter()
-        .filter_map(|&(v, a, r)| {
-            let f = common::transfer_failures(&common::run_transfer(v, a, r));
-            (!f.is_empty()).then(|| format!("  {v:?} {a:.3}° r {r:.4} m: {}", f.join("; ")))
-        })
-        .collect();
-    assert!(
-        fails.is_empty(),
-        "{} of {} draws fail:\n{}",
-        fails.len(),
-        cases.len(),
-        fails.join("\n")
-    );
 }
 
 #[test]
