@@ -319,6 +319,27 @@ fn parallel_branches_closer_than_the_trace_standoff() {
     }
 }
 
+/// Branches wider apart than a plain step (0.27 m, free profile): the first
+/// fore limb's grip on the far branch lies on its face on the limb's side,
+/// at least the gap away, and every candidate failed the step length (each
+/// of these gaps failed on main f6966c0, stopped `no_grip` at the end of the
+/// first branch). In goal mode a step onto another support may be as long
+/// as a transfer step; the reach checks decide (`candidate.rs`
+/// `max_step_at`).
+#[test]
+fn parallel_branches_wider_than_a_plain_step() {
+    for gap in [0.2763, 0.2918, 0.3195, 0.3478, 0.3657, 0.3888] {
+        let r = run("parallel", Some(gap), TrunkVariant::Up, Profile::Free);
+        assert!(r.verdict.pass, "gap {gap}: {:?}", r.verdict);
+        assert_measures_within_issue_limits(&r);
+        assert_eq!(
+            r.observations.last().unwrap().limbs[0].support.0,
+            1,
+            "gap {gap}"
+        );
+    }
+}
+
 #[test]
 fn branch_to_trunk_head_up_inside_the_thesis_range() {
     // transfer_to_trunk: fore limbs take the trunk above the hind limbs, the
