@@ -289,14 +289,24 @@ fn scenario_bad_input_is_a_clear_error() {
     }
 }
 
+/// The parallel preset at each of `gaps` passes, every measure within the
+/// issue's limits, the sloth ending on the second branch (the goal's).
+fn assert_parallel_passes(gaps: &[f32]) {
+    for &gap in gaps {
+        let r = run("parallel", Some(gap), TrunkVariant::Up, Profile::Free);
+        assert!(r.verdict.pass, "gap {gap}: {:?}", r.verdict);
+        assert_measures_within_issue_limits(&r);
+        assert_eq!(
+            r.observations.last().unwrap().limbs[0].support.0,
+            1,
+            "gap {gap}"
+        );
+    }
+}
+
 #[test]
 fn parallel_branches_change_from_one_to_the_other() {
-    for gap in [0.15, 0.25] {
-        let r = run("parallel", Some(gap), TrunkVariant::Up, Profile::Free);
-        assert_measures_within_issue_limits(&r);
-        // The goal is on the second branch: the sloth ends there.
-        assert_eq!(r.observations.last().unwrap().limbs[0].support.0, 1);
-    }
+    assert_parallel_passes(&[0.15, 0.25]);
 }
 
 /// Branches closer than the step search's trace standoff (0.15 m off the
@@ -307,16 +317,7 @@ fn parallel_branches_change_from_one_to_the_other() {
 /// inside that room (`search.rs` `trace_in_claw_room`).
 #[test]
 fn parallel_branches_closer_than_the_trace_standoff() {
-    for gap in [0.1091, 0.1191, 0.1263, 0.1317, 0.1389, 0.1426, 0.1473] {
-        let r = run("parallel", Some(gap), TrunkVariant::Up, Profile::Free);
-        assert!(r.verdict.pass, "gap {gap}: {:?}", r.verdict);
-        assert_measures_within_issue_limits(&r);
-        assert_eq!(
-            r.observations.last().unwrap().limbs[0].support.0,
-            1,
-            "gap {gap}"
-        );
-    }
+    assert_parallel_passes(&[0.1091, 0.1191, 0.1263, 0.1317, 0.1389, 0.1426, 0.1473]);
 }
 
 /// Branches wider apart than a plain step (0.27 m, free profile): the first
@@ -328,16 +329,7 @@ fn parallel_branches_closer_than_the_trace_standoff() {
 /// `max_step_at`).
 #[test]
 fn parallel_branches_wider_than_a_plain_step() {
-    for gap in [0.2763, 0.2918, 0.3195, 0.3478, 0.3657, 0.3888] {
-        let r = run("parallel", Some(gap), TrunkVariant::Up, Profile::Free);
-        assert!(r.verdict.pass, "gap {gap}: {:?}", r.verdict);
-        assert_measures_within_issue_limits(&r);
-        assert_eq!(
-            r.observations.last().unwrap().limbs[0].support.0,
-            1,
-            "gap {gap}"
-        );
-    }
+    assert_parallel_passes(&[0.2763, 0.2918, 0.3195, 0.3478, 0.3657, 0.3888]);
 }
 
 #[test]
