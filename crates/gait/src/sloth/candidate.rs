@@ -315,19 +315,26 @@ impl Sloth {
 
     /// The longest step to `at` ([`Placement::max_step`]): a transfer step
     /// (onto the support a transfer goes to, from another) reaches further,
-    /// and so, in goal mode, does any step onto another support than the
-    /// limb holds. Across parallel branches the grip sits on the far one's
-    /// face on the limb's side (formula 3), so the first fore limb's step is
-    /// at least the axes' distance long: at `parallel` gaps from 0.27 m every
-    /// candidate of the right fore limb on branch B failed the plain step
-    /// length (0.30 m at 0.3 m against 0.27 m) and the sloth stopped
-    /// `no_grip` at branch A's end; its reach checks decide now, up to a
-    /// transfer step. Wanderers keep the plain step.
+    /// and so, in goal mode, does a step from a branch onto another branch
+    /// (not onto or off a trunk: with those too, the 0.1° branch → trunk
+    /// grid lost 6 cases and gained 3). Across parallel branches the grip
+    /// sits on the far one's face on the limb's side (formula 3), so the
+    /// first fore limb's step is at least the axes' distance long: at
+    /// `parallel` gaps from 0.27 m every candidate of the right fore limb on
+    /// branch B failed the plain step length (0.30 m at 0.3 m against
+    /// 0.27 m) and the sloth stopped `no_grip` at branch A's end; its reach
+    /// checks decide now, up to a transfer step. Wanderers keep the plain
+    /// step.
     fn max_step_at(&self, env: &LocoView<'_>, at: &CandidateAt) -> f32 {
         let sid = at.support;
-        let other = sid != self.limbs[at.limb].grip.support;
+        let held = self.limbs[at.limb].grip.support;
+        let other = sid != held;
         let transfer_step = self.transfer.is_some_and(|t| t.to == sid) && other;
-        if transfer_step || (other && !self.wander) {
+        let scene = env.scene();
+        let branch_to_branch = other
+            && scene.support(sid).kind == SupportKind::Branch
+            && scene.support(held).kind == SupportKind::Branch;
+        if transfer_step || (branch_to_branch && !self.wander) {
             env.cfg.max_step_m * env.cfg.transfer_step_factor
         } else {
             env.cfg.max_step_m
