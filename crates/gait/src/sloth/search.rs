@@ -105,9 +105,8 @@ impl Sloth {
             // crowd's body entered a support by 76 mm: docs/scenarios.md).
             let hit = if traced.support == m.support {
                 traced
-            } else if let Some(hit) = (!self.wander)
-                .then(|| trace_in_claw_room(env, &m))
-                .flatten()
+            } else if !self.wander
+                && let Some(hit) = trace_in_claw_room(env, &m)
             {
                 hit
             } else {
