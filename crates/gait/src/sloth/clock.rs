@@ -80,6 +80,12 @@ impl Sloth {
             if !l.due || l.phase != LimbPhase::Planted || planted < 3 || arriving {
                 continue;
             }
+            // Retracing (`retrace.rs`): only the trail's limb steps, back.
+            let retracing = self.trail.retrace_left > 0;
+            if retracing && self.retrace_limb() != Some(li) {
+                self.limbs[li].due = false;
+                continue;
+            }
             // Release rule (issue 22): the grips that stay must carry the body.
             let hold_starts = self.load.held_since[li] < 0.0;
             if !self.release_allowed(env, li) {
@@ -108,6 +114,10 @@ impl Sloth {
             if self.turn.is_some() {
                 // Turning around: the limb's step is the turn's.
                 self.turn_search(env, li);
+                continue;
+            }
+            if retracing {
+                self.retrace_step(env, li);
                 continue;
             }
             self.limbs[li].due = false;
@@ -157,7 +167,10 @@ impl Sloth {
     /// (see [`Sloth::transitions`]): a wanderer, not turning, whose search
     /// has failed since its last step.
     fn probes_before_release(&self) -> bool {
-        self.wander && self.turn.is_none() && self.failed_searches > 0
+        self.wander
+            && self.turn.is_none()
+            && self.failed_searches > 0
+            && self.trail.retrace_left == 0
     }
 }
 

@@ -32,6 +32,7 @@ mod collide;
 mod livelock;
 mod observe;
 mod replan;
+mod retrace;
 mod route;
 mod search;
 mod solve;
@@ -44,6 +45,7 @@ mod turn;
 pub use body::BodyMemo;
 pub use livelock::NearRing;
 pub use replan::Backoff;
+pub use retrace::{Trail, TrailStep};
 pub use solve::SolveMemo;
 pub use transfer::Transfer;
 pub use turn::{TURN_STEP, Turn};
@@ -357,6 +359,10 @@ pub struct Sloth {
     /// while the search was failing (see [`Sloth::note_stuck_stance`]).
     #[serde(default)]
     pub stuck_stances: transfer::StanceRing,
+    /// Wander mode: the last steps taken and the retrace under way (see
+    /// `retrace.rs`). Checkpointed (format 28).
+    #[serde(default)]
+    pub trail: Trail,
     // Goal mode's record of the stances taken since the sloth last came
     // nearer its goal ([`NearRing`], `livelock.rs`) is kept beside the
     // sloth, not in it: see `Sloth::step_search`.

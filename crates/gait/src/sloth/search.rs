@@ -215,6 +215,7 @@ impl Sloth {
                 continue;
             }
             let failing = self.failed_searches > 0;
+            let left = self.limbs[li].grip;
             for (lj, g) in std::iter::once((li, grip)).chain(pair_grip) {
                 chosen[lj] = true;
                 let l = &mut self.limbs[lj];
@@ -242,6 +243,7 @@ impl Sloth {
                 self.hind_back_scale = back_scale;
             }
             self.note_step(env);
+            self.note_trail(env, li, left);
             self.note_transfer_stance(env, li);
             self.note_stuck_stance(env, li, failing);
             if let Some(r) = near.as_deref_mut() {
@@ -388,6 +390,10 @@ impl Sloth {
             || (self.goal_behind() && self.may_turn_around(env, true))
         {
             self.start_turn(false);
+        } else if stalled && self.may_retrace() {
+            // No step anywhere, even with the others ignored: back the way
+            // it came (`retrace.rs`).
+            self.start_retrace();
         } else if self.wander && self.stalled_turns < MAX_STALLED_TURNS {
             self.turn_back();
         } else if self.replan(env) {
@@ -609,6 +615,7 @@ impl Sloth {
             return;
         };
         let l = &mut self.limbs[li];
+        let left = l.grip;
         l.from = l.grip.point;
         l.from_normal = l.grip.normal;
         l.from_support = l.grip.support;
@@ -617,6 +624,7 @@ impl Sloth {
         l.swing_t = 0.0;
         l.due = false;
         self.note_step(env);
+        self.note_trail(env, li, left);
     }
 
     /// Ends limb `li`'s search made before the release rule lets it go
@@ -640,7 +648,7 @@ impl Sloth {
     /// turn-backs, each step clearing the count, so it never reached the
     /// turn around (and, at a branch's root, kept a sloth on the trunk
     /// beside it stuck).
-    fn note_step(&mut self, env: &LocoView<'_>) {
+    pub(super) fn note_step(&mut self, env: &LocoView<'_>) {
         self.failed_searches = 0;
         self.stalled_turns = 0;
         self.stuck_cause = None;

@@ -111,6 +111,7 @@ impl Sloth {
             goal_side: None,
             failed_searches: 0,
             stuck_stances: Default::default(),
+            trail: Default::default(),
             wander: false,
             traces_queued: false,
             seed: 0,

@@ -203,6 +203,8 @@ impl Sloth {
     pub(super) fn start_turn(&mut self, tail_first: bool) {
         // A transfer only set up (see `may_turn_around`) is given up.
         self.transfer = None;
+        // The way back would cross the turn.
+        self.trail.clear();
         let t = self.limb_map(|l| l.target);
         // The frame the body has now (formula 6, below the branch).
         let fwd0 = self.formula6_fwd(&t);
