@@ -208,6 +208,14 @@ impl Sloth {
             if self.stuck_cause.is_none() && !self.leaves_a_step(env, li, grip, pair_grip) {
                 continue;
             }
+            // A wanderer climbing a trunk keeps its way back down (with the
+            // step it commits another limb to, if any).
+            if !self.keeps_way_down(
+                env,
+                std::iter::once((li, grip)).chain(pair_grip).chain(lift),
+            ) {
+                continue;
+            }
             // A search made only to know whether there is a step: there is,
             // and the limb waits for the release rule (`Sloth::transitions`).
             if self.limbs[li].probe {
@@ -444,6 +452,59 @@ impl Sloth {
             .into_iter()
             .filter(|&lj| lj != li && pair.is_none_or(|(pi, _)| lj != pi))
             .any(|lj| next.has_step(env, lj))
+    }
+
+    /// Wander mode, climbing a trunk head up with all four limbs on it (no
+    /// turn under way; a transfer only set up by a search holds nothing
+    /// elsewhere): a step along the trunk (with the step it commits another
+    /// limb to) is taken only if, after it, a hind limb still has a step
+    /// down the trunk (tail first, as after a turn back; the other sloths
+    /// ignored: a way back the body can take once they move on), unless the
+    /// stance has none already (then any step may change that). Traced in
+    /// the 5,000 × 300 s crowds (seeds 3 and 5, 240 → 300 s): trunk sloths
+    /// whose fore limbs were held by a sloth just above had closed their
+    /// hind limbs up to the same side's spacing (0.15–0.2 m below the fore
+    /// grips; a fore limb's short step down committed by a hind step did the
+    /// same); turned back, every hind step down failed reach or the girdle
+    /// lead, and the fore limbs may not step down level with the hind ones,
+    /// so they turned back and forth for minutes (`no_grip`, `boxed_in`,
+    /// `crowded`). Goal mode and any other step: true.
+    pub(super) fn keeps_way_down(
+        &self,
+        env: &LocoView<'_>,
+        steps: impl Iterator<Item = (usize, Grip)> + Clone,
+    ) -> bool {
+        let scene = env.scene();
+        let sid = self.limbs[0].grip.support;
+        if !self.wander
+            || self.dir <= 0.0
+            || self.turn.is_some()
+            || scene.support(sid).kind != SupportKind::Trunk
+            || self.limbs.iter().any(|l| l.grip.support != sid)
+            || steps.clone().any(|(_, g)| g.support != sid)
+        {
+            return true;
+        }
+        let alone = LocoView {
+            crowd: None,
+            ..*env
+        };
+        let way_down = |s: &Sloth| {
+            let mut back = *s;
+            // All four on the trunk: a transfer only set up by a search (or
+            // one ending there) holds nothing elsewhere.
+            back.transfer = None;
+            back.dir = -back.dir;
+            for l in &mut back.limbs {
+                l.grip.sdir = -l.grip.sdir;
+                l.phase = LimbPhase::Planted;
+            }
+            [Limb::LH, Limb::RH]
+                .iter()
+                .any(|h| back.has_step(&alone, h.index()))
+        };
+        // A stance with no way down already: any step may change that.
+        !way_down(self) || way_down(&self.after_steps(env, steps))
     }
 
     /// Whether limb `li` has any candidate passing the cheap checks and the
@@ -826,6 +887,99 @@ fn trace_in_claw_room(env: &LocoView<'_>, m: &Candidate) -> Option<TraceHit> {
         .ok()
         .flatten()
         .filter(|h| h.support == m.support)
+}
+
+#[cfg(test)]
+mod way_down_tests {
+    use glam::Vec3;
+    use slothsim_rig::Rig;
+    use slothsim_scene::{Preset, PresetKind, TraceScene};
+
+    use super::super::test_util::tick;
+    use super::super::{LimbPhase, NearRing, Sloth, SpawnHint, TraceBatch};
+    use crate::{CrowdGrid, LocoEnv, LocoView, LocomotionConfig, Profile};
+
+    /// Whether a hind limb of `s` has a step down its trunk once turned back
+    /// (tail first), the other sloths ignored.
+    fn has_way_down(view: &LocoView<'_>, s: &Sloth) -> bool {
+        let mut back = *s;
+        back.turn_back();
+        let alone = LocoView {
+            crowd: None,
+            ..*view
+        };
+        [2, 3].iter().any(|&h| back.has_step(&alone, h))
+    }
+
+    /// A wanderer climbing the `trunk` preset (radii 0.1–0.16 m) with a
+    /// sloth just above it (a copy of its own points moved up the trunk by
+    /// its fore–hind spread and 0.2 m: its fore limbs have no step up within
+    /// the clearance, its hind limbs have room to close up): at every stance
+    /// it takes head up (all four limbs planted on the trunk) a hind limb
+    /// has a step down the trunk ([`Sloth::keeps_way_down`]). Without the
+    /// rule the hind limbs closed up under the held fore limbs to the same
+    /// side's spacing, where every hind step down failed reach (crowds:
+    /// stuck for minutes, turning back and forth).
+    #[test]
+    fn a_wanderer_held_from_above_on_a_trunk_keeps_its_way_down() {
+        let mut stances = 0;
+        for radius in [0.1, 0.13, 0.16] {
+            let preset = Preset::new(PresetKind::Trunk, Some(radius)).unwrap();
+            let cfg = LocomotionConfig::profile(Profile::Free);
+            let env =
+                LocoEnv::new(cfg, &Rig::sloth(), TraceScene::new(preset.scene.clone())).unwrap();
+            let view = env.view();
+            let hint = SpawnHint::from(preset.start);
+            let mut sloth = Sloth::spawn(&view, &hint, None);
+            sloth.wander = true;
+            let (mut batch, mut near) = (TraceBatch::default(), NearRing::default());
+            let on_trunk = |s: &Sloth| {
+                s.transfer.is_none()
+                    && s.limbs.iter().all(|l| {
+                        l.grip.support == preset.start.support && l.phase == LimbPhase::Planted
+                    })
+            };
+            for _ in 0..60 {
+                tick(&mut sloth, &mut near, &view, &mut batch);
+            }
+            for _ in 0..300 {
+                if on_trunk(&sloth) {
+                    break;
+                }
+                tick(&mut sloth, &mut near, &view, &mut batch);
+            }
+            assert!(on_trunk(&sloth), "r {radius}: on the trunk");
+            assert!(
+                has_way_down(&view, &sloth),
+                "r {radius}: a way down at the start"
+            );
+            let y = |li: usize| sloth.limbs[li].grip.point.y;
+            let spread = y(0).max(y(1)) - y(2).min(y(3));
+            let above = Vec3::Y * (spread + 0.2);
+            let other = crate::crowd_points(view.rig, &sloth).map(|p| p + above);
+            let mut grid = CrowdGrid::new(0.3);
+            grid.rebuild(other.iter().map(|&p| (1000, p)));
+            let crowd = env.view_with(Some(&grid));
+            let mut closed = f32::INFINITY;
+            for frame in 0..1800 {
+                tick(&mut sloth, &mut near, &crowd, &mut batch);
+                assert!(sloth.body_pos.is_finite(), "r {radius} frame {frame}");
+                if sloth.dir > 0.0 && on_trunk(&sloth) {
+                    stances += 1;
+                    let y = |li: usize| sloth.limbs[li].grip.point.y;
+                    closed = closed.min((y(0) - y(2)).min(y(1) - y(3)));
+                    assert!(
+                        has_way_down(&view, &sloth),
+                        "r {radius} frame {frame}: no hind step down (fore − hind {:.3} / {:.3} m)",
+                        y(0) - y(2),
+                        y(1) - y(3)
+                    );
+                }
+            }
+            assert!(closed.is_finite(), "r {radius}: no stance head up");
+        }
+        assert!(stances > 0);
+    }
 }
 
 #[cfg(test)]
