@@ -177,6 +177,18 @@ pub struct LimbState {
     pub probe: bool,
 }
 
+impl LimbState {
+    /// Starts a swing from the held grip to `to`.
+    pub(super) fn swing_to(&mut self, to: Grip) {
+        self.from = self.grip.point;
+        self.from_normal = self.grip.normal;
+        self.from_support = self.grip.support;
+        self.grip = to;
+        self.phase = LimbPhase::Swinging;
+        self.swing_t = 0.0;
+    }
+}
+
 /// A limb's committed step (see [`LimbState::fallback`]).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Fallback {

@@ -197,12 +197,7 @@ impl Sloth {
             return;
         }
         let l = &mut self.limbs[li];
-        l.from = l.grip.point;
-        l.from_normal = l.grip.normal;
-        l.from_support = l.grip.support;
-        l.grip = g;
-        l.phase = LimbPhase::Swinging;
-        l.swing_t = 0.0;
+        l.swing_to(g);
         l.fallback = None;
         self.trail.pop();
         self.trail.retrace_left -= 1;

@@ -227,12 +227,7 @@ impl Sloth {
             for (lj, g) in std::iter::once((li, grip)).chain(pair_grip) {
                 chosen[lj] = true;
                 let l = &mut self.limbs[lj];
-                l.from = l.grip.point;
-                l.from_normal = l.grip.normal;
-                l.from_support = l.grip.support;
-                l.grip = g;
-                l.phase = LimbPhase::Swinging;
-                l.swing_t = 0.0;
+                l.swing_to(g);
                 l.probe = false;
                 // Its own search found a step: a committed one is void.
                 l.fallback = None;
@@ -677,12 +672,7 @@ impl Sloth {
         };
         let l = &mut self.limbs[li];
         let left = l.grip;
-        l.from = l.grip.point;
-        l.from_normal = l.grip.normal;
-        l.from_support = l.grip.support;
-        l.grip = fb.grip;
-        l.phase = LimbPhase::Swinging;
-        l.swing_t = 0.0;
+        l.swing_to(fb.grip);
         l.due = false;
         self.note_step(env);
         self.note_trail(env, li, left);

@@ -371,18 +371,13 @@ impl Sloth {
         let s = env.scene().support(tr.support);
         let a = project(s, step.grip);
         let l = &mut self.limbs[li];
-        l.from = l.grip.point;
-        l.from_normal = l.grip.normal;
-        l.from_support = l.grip.support;
-        l.grip = Grip {
+        l.swing_to(Grip {
             point: step.grip,
             normal: step.normal,
             support: tr.support,
             u: a.u,
             sdir: l.grip.sdir,
-        };
-        l.phase = LimbPhase::Swinging;
-        l.swing_t = 0.0;
+        });
         let advanced = step.to > tr.angle || step.handover;
         self.turn = Some(Turn {
             to: step.to,
