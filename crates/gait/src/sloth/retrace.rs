@@ -199,11 +199,11 @@ impl Sloth {
         let l = &mut self.limbs[li];
         l.swing_to(g);
         l.fallback = None;
+        // One step popped, one fewer to take: `retrace_left` never exceeds
+        // the record's length (a retrace starts at most at it).
         self.trail.pop();
         self.trail.retrace_left -= 1;
-        let left = self.trail.retrace_left;
         self.note_step(env);
-        self.trail.retrace_left = if self.trail.len == 0 { 0 } else { left };
         if self.trail.retrace_left == 0 && self.dir == dir_in {
             // Back where it came from: head away from the dead end (not a
             // turn back: the stall counts are the steps').
