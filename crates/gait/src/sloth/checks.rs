@@ -491,7 +491,7 @@ impl Sloth {
         // IK fails 30 % of the steps that need this test, the test 0.1 %
         // (every check here is pure: the order only decides how early a
         // step is rejected).
-        !((kind_change || self.hang_trunk.is_some() || self.trunk_within_step(env))
+        !((kind_change || self.hang_trunk.is_some() || self.free_support_within_step(env))
             && self.arc_body_penetrates(env, &stance_at))
     }
 
@@ -538,20 +538,24 @@ impl Sloth {
         }
     }
 
-    /// Whether a trunk among the supports the checks look at comes within a
-    /// longest step of the torso: its swing can carry the body into that
-    /// trunk between the IK checks' arc points (a crowd wanderer near a
-    /// branch's tip stepped 0.14 m and its torso entered the branch's trunk
-    /// 10.4 mm at 13–27 % of the arc, before the first point at 30 %).
-    /// The trunk's bounding box first, then its segments' capsules.
-    fn trunk_within_step(&self, env: &LocoView<'_>) -> bool {
+    /// Whether a support among those the checks look at that no limb holds
+    /// comes within a longest step of the torso: its swing can carry the body
+    /// into that support between the IK checks' arc points (a crowd wanderer
+    /// near a branch's tip stepped 0.14 m and its torso entered the branch's
+    /// trunk 10.4 mm at 13–27 % of the arc, before the first point at 30 %;
+    /// one straddling two branches of a fork entered their parent branch,
+    /// held by no limb, 11.0 mm at 20 % of its fore limb's step from one
+    /// to the other). The support's bounding box first, then its segments'
+    /// capsules.
+    fn free_support_within_step(&self, env: &LocoView<'_>) -> bool {
         let scene = env.scene();
         let torso = [
             self.body_pos + self.body_rot * env.rig.torso_ms[0],
             self.body_pos + self.body_rot * env.rig.torso_ms[1],
         ];
+        let held = self.limb_map(|l| l.grip.support);
         self.near_supports(env).any(|id| {
-            scene.support(id).kind == SupportKind::Trunk
+            !held.contains(&id)
                 && torso_box_meets(env, torso, env.cfg.max_step_m, id)
                 && torso_within(
                     scene.support(id),
