@@ -491,7 +491,7 @@ impl Sloth {
         // IK fails 30 % of the steps that need this test, the test 0.1 %
         // (every check here is pure: the order only decides how early a
         // step is rejected).
-        !((kind_change || self.hang_trunk.is_some() || self.trunk_within_step(env))
+        !((kind_change || self.hang_trunk.is_some() || self.free_support_within_step(env))
             && self.arc_body_penetrates(env, &stance_at))
     }
 
@@ -538,20 +538,24 @@ impl Sloth {
         }
     }
 
-    /// Whether a trunk among the supports the checks look at comes within a
-    /// longest step of the torso: its swing can carry the body into that
-    /// trunk between the IK checks' arc points (a crowd wanderer near a
-    /// branch's tip stepped 0.14 m and its torso entered the branch's trunk
-    /// 10.4 mm at 13–27 % of the arc, before the first point at 30 %).
-    /// The trunk's bounding box first, then its segments' capsules.
-    fn trunk_within_step(&self, env: &LocoView<'_>) -> bool {
+    /// Whether a support among those the checks look at that no limb holds
+    /// comes within a longest step of the torso: its swing can carry the body
+    /// into that support between the IK checks' arc points (a crowd wanderer
+    /// near a branch's tip stepped 0.14 m and its torso entered the branch's
+    /// trunk 10.4 mm at 13–27 % of the arc, before the first point at 30 %;
+    /// one straddling two branches of a fork entered their parent branch,
+    /// held by no limb, 11.0 mm at 20 % of its fore limb's step from one
+    /// to the other). The support's bounding box first, then its segments'
+    /// capsules.
+    fn free_support_within_step(&self, env: &LocoView<'_>) -> bool {
         let scene = env.scene();
         let torso = [
             self.body_pos + self.body_rot * env.rig.torso_ms[0],
             self.body_pos + self.body_rot * env.rig.torso_ms[1],
         ];
+        let held = self.limb_map(|l| l.grip.support);
         self.near_supports(env).any(|id| {
-            scene.support(id).kind == SupportKind::Trunk
+            !held.contains(&id)
                 && torso_box_meets(env, torso, env.cfg.max_step_m, id)
                 && torso_within(
                     scene.support(id),
@@ -1016,6 +1020,7 @@ fn in_air(env: &LocoView<'_>, l: &LimbState, progress: f32, down: Vec3) -> Vec3 
 mod tests {
     use super::*;
     use crate::Profile;
+    use crate::sloth::collide::STANCE_MAX_PENETRATION;
     use crate::sloth::test_util::{preset_sloth, walk_presets, walk_presets_with, xorshift};
 
     /// [`beyond_polish`] (the stances' lanes tested before any is polished)
@@ -1144,6 +1149,68 @@ mod tests {
              {worst_body} m"
         );
         assert!(probes > 100 && frames > 2000, "{probes} {frames}");
+    }
+
+    /// Issue 24 (the seed-6 crowd, sloth 3267 at 90.8 s; fixture
+    /// `testdata/straddle_fork.json`: the procedural forest's size, the
+    /// sloth as it stood, the step main took). Straddling two branches of a
+    /// fork (fore limbs on one, hind limbs on the other), the sloth steps its
+    /// left fore limb from the one to the other; their parent branch, which
+    /// no limb holds, runs just past the torso. Drawn frame by frame as
+    /// `body_average` draws it, that step's body enters the parent branch
+    /// over [`STANCE_MAX_PENETRATION`] (11 mm at a fifth of the arc, before
+    /// the IK checks' first arc point, which sees 4 mm there): the step is
+    /// rejected (main took it: it checked the body at every 5 % of the arc
+    /// only near a trunk). The fixture holds a `Sloth` as serde writes it:
+    /// rewrite it (from a replay of that state) when `Sloth`'s fields change.
+    #[test]
+    fn straddling_step_into_the_forks_parent_is_rejected() {
+        let fx: serde_json::Value =
+            serde_json::from_str(include_str!("testdata/straddle_fork.json")).unwrap();
+        let forest: slothsim_scene::ForestConfig =
+            serde_json::from_value(fx["forest"].clone()).unwrap();
+        let sloth: Sloth = serde_json::from_value(fx["sloth"].clone()).unwrap();
+        let step = &fx["step"];
+        let li = step["limb"].as_u64().unwrap() as usize;
+        let v = |x: &serde_json::Value| -> Vec3 { serde_json::from_value(x.clone()).unwrap() };
+        let (grip, normal) = (v(&step["point"]), v(&step["normal"]));
+        let support = SupportId(step["support"].as_u64().unwrap() as u32);
+        let scene = slothsim_scene::generate_forest(&forest).unwrap();
+        let env = crate::LocoEnv::new(
+            crate::LocomotionConfig::profile(Profile::Free),
+            &slothsim_rig::Rig::sloth(),
+            slothsim_scene::TraceScene::new(scene),
+        )
+        .unwrap();
+        let view = env.view();
+        // The forest is the crowd's: every grip lies on its support.
+        for l in &sloth.limbs {
+            let s = view.scene().support(l.grip.support);
+            let gap = crate::path::surface_gap(view.query, s, l.grip.point);
+            assert!(gap.abs() < 1e-3, "grip {gap} m off its support");
+        }
+        // The step drawn frame by frame: its deepest body.
+        let mut drawn = sloth;
+        let m = &mut drawn.limbs[li];
+        m.from = m.grip.point;
+        m.from_normal = m.grip.normal;
+        m.from_support = m.grip.support;
+        m.grip.point = grip;
+        m.grip.normal = normal;
+        m.grip.support = support;
+        m.phase = LimbPhase::Swinging;
+        m.swing_t = 0.0;
+        let mut deepest = f32::NEG_INFINITY;
+        while drawn.any_swinging() {
+            drawn.body_average(&view, 1.0 / 60.0);
+            deepest = deepest.max(drawn.observe(&view).penetration_m);
+        }
+        println!("the step's drawn body enters a support {deepest} m deep");
+        assert!(deepest > STANCE_MAX_PENETRATION, "{deepest}");
+        assert!(
+            !sloth.step_reachable(&view, li, grip, normal, support),
+            "the step is taken"
+        );
     }
 
     /// The end stance first ([`stances_in_band_end_first`], its body tested

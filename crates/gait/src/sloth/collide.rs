@@ -12,7 +12,7 @@ use crate::rigdata::BODY_RADIUS;
 use super::{LocoView, Sloth};
 
 /// A step may not put the body deeper than this into a support.
-const STANCE_MAX_PENETRATION: f32 = 0.005;
+pub(super) const STANCE_MAX_PENETRATION: f32 = 0.005;
 
 /// Most bodies [`Sloth::bodies_penetrate`] takes at once.
 pub(super) const MAX_BODIES: usize = 16;
