@@ -419,10 +419,36 @@ impl Sloth {
         // the trunk 19 cm above them had the head 12 cm below the hips at
         // its lift-off, above them only a third of its swing later; at
         // 70–76° such steps put the head below the hips for 2–8 frames.
-        let onto_trunk = self.transfer.is_some_and(|t| t.to == t.trunk);
+        // So does a fore limb's step onto a trunk from another support
+        // whatever the transfer under way: a wanderer turned back in a
+        // trunk → branch transfer (its `to` the branch) walked its fore
+        // limbs back down a rising branch and onto the trunk at the
+        // branch's root, 0.3 m below its hind grips, and stayed there head
+        // down (seed 6 of the 5,000-sloth crowd, 2,403 frames).
+        // And a wanderer whose hind limbs both hold a trunk while its fore
+        // limbs do not (leaving the trunk for a branch, or turned back
+        // during that) keeps the head above the hips if it is there now:
+        // wanderers leave a trunk only for a branch rising from it
+        // (`Sloth::wander_branch`), so head up is always their own way;
+        // down that branch toward its root the body pitched head down step
+        // by step before the fore limbs took the trunk. (Goal mode follows
+        // a branch falling away from the trunk where its goal is: the
+        // trunk_branch preset past 90°.)
         let (lf, rf) = (Limb::LF.index(), Limb::RF.index());
-        if onto_trunk && held(lf) == held(rf) && scene.support(held(lf)).kind == SupportKind::Trunk
-        {
+        let (lh, rh) = (Limb::LH.index(), Limb::RH.index());
+        let is_trunk = |sid: SupportId| scene.support(sid).kind == SupportKind::Trunk;
+        let fore_on_trunk = held(lf) == held(rf) && is_trunk(held(lf));
+        let fore_onto_trunk = is_trunk(support)
+            && steps
+                .iter()
+                .any(|&(li, ..)| Limb::ALL[li].is_fore() && self.limbs[li].grip.support != support);
+        let onto_trunk = self.transfer.is_some_and(|t| t.to == t.trunk) || fore_onto_trunk;
+        let hind_on_trunk_only = self.wander
+            && held(lh) == held(rh)
+            && is_trunk(held(lh))
+            && !(held(lf) == held(lh) && held(rf) == held(lh))
+            && head_above_hips(env, self.body_pos, self.body_rot);
+        if (onto_trunk && fore_on_trunk) || hind_on_trunk_only {
             let head_up = |pos: Vec3, rot: Quat| head_above_hips(env, pos, rot);
             if !stances
                 .iter()
