@@ -564,15 +564,18 @@ impl Sloth {
         }
     }
 
-    /// Whether a support among those the checks look at that no limb holds
-    /// comes within a longest step of the torso: its swing can carry the body
-    /// into that support between the IK checks' arc points (a crowd wanderer
-    /// near a branch's tip stepped 0.14 m and its torso entered the branch's
-    /// trunk 10.4 mm at 13–27 % of the arc, before the first point at 30 %;
-    /// one straddling two branches of a fork entered their parent branch,
-    /// held by no limb, 11.0 mm at 20 % of its fore limb's step from one
-    /// to the other). The support's bounding box first, then its segments'
-    /// capsules.
+    /// Whether a trunk, or a support that no limb holds, among those the
+    /// checks look at comes within a longest step of the torso: its swing
+    /// can carry the body into that support between the IK checks' arc
+    /// points (a crowd wanderer near a branch's tip stepped 0.14 m and its
+    /// torso entered the branch's trunk 10.4 mm at 13–27 % of the arc,
+    /// before the first point at 30 %; one straddling two branches of a fork
+    /// entered their parent branch, held by no limb, 11.0 mm at 20 % of its
+    /// fore limb's step from one to the other; one in a transfer, hind limbs
+    /// on the trunk, entered that trunk 11.8 mm at 63–73 % of a fore step
+    /// along the branch). A branch the limbs hold is left out: the body
+    /// hangs from it, always within a step. The support's bounding box
+    /// first, then its segments' capsules.
     fn free_support_within_step(&self, env: &LocoView<'_>) -> bool {
         let scene = env.scene();
         let torso = [
@@ -581,7 +584,7 @@ impl Sloth {
         ];
         let held = self.limb_map(|l| l.grip.support);
         self.near_supports(env).any(|id| {
-            !held.contains(&id)
+            (scene.support(id).kind == SupportKind::Trunk || !held.contains(&id))
                 && torso_box_meets(env, torso, env.cfg.max_step_m, id)
                 && torso_within(
                     scene.support(id),
