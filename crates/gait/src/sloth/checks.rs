@@ -1180,22 +1180,14 @@ mod tests {
         assert!(probes > 100 && frames > 2000, "{probes} {frames}");
     }
 
-    /// Issue 24 (the seed-6 crowd, sloth 3267 at 90.8 s; fixture
-    /// `testdata/straddle_fork.json`: the procedural forest's size, the
-    /// sloth as it stood, the step main took). Straddling two branches of a
-    /// fork (fore limbs on one, hind limbs on the other), the sloth steps its
-    /// left fore limb from the one to the other; their parent branch, which
-    /// no limb holds, runs just past the torso. Drawn frame by frame as
-    /// `body_average` draws it, that step's body enters the parent branch
-    /// over [`STANCE_MAX_PENETRATION`] (11 mm at a fifth of the arc, before
-    /// the IK checks' first arc point, which sees 4 mm there): the step is
-    /// rejected (main took it: it checked the body at every 5 % of the arc
-    /// only near a trunk). The fixture holds a `Sloth` as serde writes it:
-    /// rewrite it (from a replay of that state) when `Sloth`'s fields change.
-    #[test]
-    fn straddling_step_into_the_forks_parent_is_rejected() {
-        let fx: serde_json::Value =
-            serde_json::from_str(include_str!("testdata/straddle_fork.json")).unwrap();
+    /// A crowd sloth and the step it took, from a fixture (the procedural
+    /// forest's size, the sloth as serde writes it, the step): the deepest
+    /// its body enters a support while that step is drawn frame by frame as
+    /// `body_average` draws it, and whether the step checks take the step
+    /// now. Such a fixture holds a `Sloth` as serde writes it: rewrite it
+    /// (from a replay of the crowd's state) when `Sloth`'s fields change.
+    fn drawn_crowd_step(fixture: &str) -> (f32, bool) {
+        let fx: serde_json::Value = serde_json::from_str(fixture).unwrap();
         let forest: slothsim_scene::ForestConfig =
             serde_json::from_value(fx["forest"].clone()).unwrap();
         let sloth: Sloth = serde_json::from_value(fx["sloth"].clone()).unwrap();
@@ -1235,11 +1227,41 @@ mod tests {
             deepest = deepest.max(drawn.observe(&view).penetration_m);
         }
         println!("the step's drawn body enters a support {deepest} m deep");
+        (
+            deepest,
+            sloth.step_reachable(&view, li, grip, normal, support),
+        )
+    }
+
+    /// Issue 24 (the seed-6 crowd, sloth 3267 at 90.8 s; fixture
+    /// `testdata/straddle_fork.json`). Straddling two branches of a fork
+    /// (fore limbs on one, hind limbs on the other), the sloth steps its
+    /// left fore limb from the one to the other; their parent branch, which
+    /// no limb holds, runs just past the torso. Drawn frame by frame, that
+    /// step's body enters the parent branch over [`STANCE_MAX_PENETRATION`]
+    /// (11 mm at a fifth of the arc, before the IK checks' first arc point,
+    /// which sees 4 mm there): the step is rejected (main took it: it
+    /// checked the body at every 5 % of the arc only near a trunk).
+    #[test]
+    fn straddling_step_into_the_forks_parent_is_rejected() {
+        let (deepest, taken) = drawn_crowd_step(include_str!("testdata/straddle_fork.json"));
         assert!(deepest > STANCE_MAX_PENETRATION, "{deepest}");
-        assert!(
-            !sloth.step_reachable(&view, li, grip, normal, support),
-            "the step is taken"
-        );
+        assert!(!taken, "the step is taken");
+    }
+
+    /// Issue 24 (the seed-5 crowd, sloth 1116 at 292.7 s; fixture
+    /// `testdata/transfer_held_trunk.json`). In a transfer, both hind limbs
+    /// on a trunk and both fore limbs on a branch, the sloth steps its right
+    /// fore limb along the branch; drawn frame by frame, the body enters the
+    /// trunk its hind limbs hold 11.8 mm at 63–73 % of the swing, between the
+    /// IK checks' arc points at 55 % and 80 %: the step is rejected (a build
+    /// that checked the body at every 5 % of the arc only near supports no
+    /// limb holds took it).
+    #[test]
+    fn step_into_the_held_trunk_between_arc_points_is_rejected() {
+        let (deepest, taken) = drawn_crowd_step(include_str!("testdata/transfer_held_trunk.json"));
+        assert!(deepest > STANCE_MAX_PENETRATION, "{deepest}");
+        assert!(!taken, "the step is taken");
     }
 
     /// The end stance first ([`stances_in_band_end_first`], its body tested
