@@ -11,14 +11,6 @@
 //! same side's spacing, which formula 6 needs, is checked again). After
 //! [`RETRACE_MIN`] steps (or fewer, the trail's length) it heads away from
 //! where it came from and searches as before.
-//!
-//! A branch ↔ trunk transfer under way is part of the trail (its steps are
-//! kept with the steps before it): a half-done transfer whose search gives
-//! up (`StuckCause::TransferFailed`) steps back the same way, and a step back
-//! that takes the last limb off the transfer's target ends it
-//! (`Sloth::finish_transfer`). A transfer's end (done, undone or gone on
-//! onto another support outside a retrace) ends the trail: the way back
-//! would cross it without its record.
 
 use serde::{Deserialize, Serialize};
 use slothsim_rig::Limb;
@@ -90,16 +82,6 @@ impl Trail {
         self.len = (self.len + 1).min(TRAIL_KEPT as u8);
     }
 
-    /// Whether a step held left a grip on support `sid`.
-    pub(super) fn left_support(&self, sid: SupportId) -> bool {
-        (0..self.len as usize).any(|k| {
-            self.steps[(self.next as usize + TRAIL_KEPT - 1 - k) % TRAIL_KEPT]
-                .left
-                .support
-                == sid
-        })
-    }
-
     /// The most recent step.
     pub fn top(&self) -> Option<TrailStep> {
         (self.len > 0).then(|| self.steps[(self.next as usize + TRAIL_KEPT - 1) % TRAIL_KEPT])
@@ -115,19 +97,18 @@ impl Trail {
 
 impl Sloth {
     /// A step was taken (limb `li` left grip `left` for the grip it now
-    /// swings to): a wanderer remembers it, outside turns, between supports
-    /// of one kind or within a transfer under way (see the module); any other
-    /// step ends the trail (the way back would cross a turn, or a change of
-    /// support kind without its transfer).
+    /// swings to): a wanderer remembers it, outside transfers and turns and
+    /// between supports of one kind; any other step ends the trail (the way
+    /// back would cross a transfer or a turn).
     pub(super) fn note_trail(&mut self, env: &LocoView<'_>, li: usize, left: Grip) {
         if !self.wander {
             return;
         }
         let scene = env.scene();
         let to = self.limbs[li].grip.support;
-        if self.turn.is_some()
-            || (self.transfer.is_none()
-                && scene.support(left.support).kind != scene.support(to).kind)
+        if self.transfer.is_some()
+            || self.turn.is_some()
+            || scene.support(left.support).kind != scene.support(to).kind
         {
             self.trail.clear();
             return;
@@ -141,17 +122,15 @@ impl Sloth {
     }
 
     /// Whether a stalled wanderer whose search gave up retraces: nothing in
-    /// the air, no turn, steps remembered, and no limb with a step even with
-    /// the other sloths ignored (`StuckCause::Tip`, `StuckCause::NoGrip`, or
-    /// `StuckCause::TransferFailed`: a half-done transfer).
+    /// the air, no transfer or turn, steps remembered, and no limb with a
+    /// step even with the other sloths ignored (`StuckCause::Tip`,
+    /// `StuckCause::NoGrip`).
     pub(super) fn may_retrace(&self) -> bool {
         self.wander
+            && self.transfer.is_none()
             && self.turn.is_none()
             && self.trail.len > 0
-            && matches!(
-                self.stuck_cause,
-                Some(StuckCause::Tip | StuckCause::NoGrip | StuckCause::TransferFailed)
-            )
+            && matches!(self.stuck_cause, Some(StuckCause::Tip | StuckCause::NoGrip))
             && !self.any_swinging()
     }
 
@@ -189,9 +168,8 @@ impl Sloth {
     }
 
     /// Whether limb `li` may step back to `g`: every check a step makes
-    /// (see the module; the head-up rules of a step onto or off a trunk are
-    /// [`Sloth::step_reachable`]'s, and the stance it lands in held them
-    /// before).
+    /// (see the module; no transfer is under way, so the head-up margins
+    /// have nothing to check).
     pub(super) fn retrace_passes(&self, env: &LocoView<'_>, li: usize, g: Grip) -> bool {
         let limb = Limb::ALL[li];
         let cur = self.limbs[li].grip.point;
@@ -364,117 +342,6 @@ mod tests {
         assert!(
             cases >= 5 && steps_back >= cases * RETRACE_MIN as usize,
             "{cases} dead straddles, {steps_back} steps back"
-        );
-    }
-
-    /// Wanderers crossing from the branch of the `branch_trunk` preset onto
-    /// its trunk (angles drawn at random), taken half across (a limb on the
-    /// trunk and one on the branch, all planted, the transfer under way)
-    /// with steps remembered. Each such stance is made dead as above
-    /// (longest step 31 mm): the search's give-up (`transfer_failed`)
-    /// starts a retrace (before the rule the trail ended at the transfer's
-    /// first step and a transfer under way never retraced: the sloth turned
-    /// back and forth and stopped there), and each step back passes its
-    /// checks, lands in a stance the walk stood in, the body out of the
-    /// supports; a retrace that takes the last limb off the trunk ends the
-    /// transfer.
-    #[test]
-    fn a_half_done_transfer_is_left_by_retracing_the_steps_into_it() {
-        let mut rnd = xorshift(7);
-        let (mut cases, mut steps_back, mut undone) = (0, 0, 0);
-        for _ in 0..10 {
-            let angle = 90.0 + 40.0 * rnd();
-            let preset = Preset::new(PresetKind::BranchTrunk, Some(angle)).unwrap();
-            let cfg = LocomotionConfig::profile(Profile::Free);
-            let short = LocomotionConfig {
-                max_step_m: 0.031,
-                ..cfg.clone()
-            };
-            let env =
-                LocoEnv::new(cfg, &Rig::sloth(), TraceScene::new(preset.scene.clone())).unwrap();
-            let dead_env =
-                LocoEnv::new(short, &Rig::sloth(), TraceScene::new(preset.scene.clone())).unwrap();
-            let (view, dead_view) = (env.view(), dead_env.view());
-            let mut sloth = Sloth::spawn(&view, &SpawnHint::from(preset.start), None);
-            sloth.wander = true;
-            let (mut batch, mut near) = (TraceBatch::default(), NearRing::default());
-            let mut walked = vec![key(&sloth)];
-            let mut halves = Vec::new();
-            for frame in 0..3000 {
-                tick(&mut sloth, &mut near, &view, &mut batch);
-                if walked.last() != Some(&key(&sloth)) {
-                    walked.push(key(&sloth));
-                }
-                if frame % 10 == 0
-                    && let Some(t) = sloth.transfer
-                    && sloth.limbs.iter().any(|l| l.grip.support == t.trunk)
-                    && sloth.limbs.iter().any(|l| l.grip.support != t.trunk)
-                    && sloth.limbs.iter().all(|l| l.phase == LimbPhase::Planted)
-                    && sloth.turn.is_none()
-                    && sloth.trail.len as usize >= RETRACE_MIN as usize
-                {
-                    halves.push((sloth, walked.len()));
-                }
-            }
-            for &(plain, walked_len) in &halves {
-                let mut stalled = plain;
-                stalled.stall_from = Some((stalled.body_pos, 2));
-                stalled.stalled_turns = 2;
-                let no_step = |s: &Sloth| (0..4).all(|li| !s.has_step(&dead_view, li));
-                if !no_step(&plain) || !no_step(&stalled) {
-                    continue;
-                }
-                stalled.give_up(&dead_view);
-                assert_eq!(stalled.stuck_cause, Some(StuckCause::TransferFailed));
-                assert!(
-                    stalled.trail.retrace_left > 0,
-                    "angle {angle}: a half-done transfer retraces"
-                );
-                let trunk = plain.transfer.unwrap().trunk;
-                let mut back = walked[..walked_len - 1].iter().rev();
-                let mut sl = stalled;
-                let (mut batch, mut near) = (TraceBatch::default(), NearRing::default());
-                for _ in 0..1200 {
-                    if sl.trail.retrace_left == 0 && !sl.any_swinging() {
-                        break;
-                    }
-                    batch.run(&dead_view.query);
-                    sl.step_search(&dead_view, &mut batch, Some(&mut near));
-                    sl.body_average(&dead_view, 1.0 / 60.0);
-                    sl.solve_limbs(&dead_view);
-                    let before = sl;
-                    sl.transitions(&dead_view, 1.0 / 60.0, &mut batch);
-                    assert!(sl.body_pos.is_finite(), "angle {angle}");
-                    assert!(
-                        !sl.body_penetrates(&dead_view, sl.body_pos, sl.body_rot),
-                        "angle {angle}: the body in a support"
-                    );
-                    if sl.trail.len + 1 == before.trail.len
-                        && sl.trail.retrace_left + 1 == before.trail.retrace_left
-                    {
-                        let li = before.trail.top().unwrap().limb as usize;
-                        assert_eq!(sl.limbs[li].phase, LimbPhase::Swinging);
-                        assert!(before.retrace_passes(&dead_view, li, sl.limbs[li].grip));
-                        let k = key(&sl);
-                        assert!(
-                            back.any(|w| *w == k),
-                            "angle {angle}: a retrace step lands in an earlier stance"
-                        );
-                        steps_back += 1;
-                    }
-                }
-                assert_eq!(sl.trail.retrace_left, 0, "angle {angle}: the retrace ends");
-                sl.finish_transfer(&dead_view);
-                if sl.limbs.iter().all(|l| l.grip.support != trunk) {
-                    assert!(sl.transfer.is_none(), "angle {angle}: the transfer undone");
-                    undone += 1;
-                }
-                cases += 1;
-            }
-        }
-        assert!(
-            cases >= 3 && steps_back >= cases && undone >= 1,
-            "{cases} half-done transfers, {steps_back} steps back, {undone} undone"
         );
     }
 }

@@ -522,13 +522,6 @@ impl Sloth {
             .all(|l| l.phase == LimbPhase::Planted && l.grip.support != tr.to)
         {
             self.transfer = transfer_not_taken(tr, self.limb_map(|l| l.grip.support));
-            // Undone (or gone on onto another support) outside a retrace:
-            // the way back would cross the transfer without its record
-            // (`Sloth::note_trail`). One only set up by a search took no
-            // step off its target, and the trail stands.
-            if self.trail.retrace_left == 0 && self.trail.left_support(tr.to) {
-                self.trail.clear();
-            }
             return;
         }
         if !self
@@ -539,7 +532,6 @@ impl Sloth {
             return;
         }
         self.transfer = None;
-        self.trail.clear();
         self.hind_single = false;
         self.lone_fore_searches = 0;
         let s = env.scene().support(tr.to);
