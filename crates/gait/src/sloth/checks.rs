@@ -1136,12 +1136,10 @@ mod tests {
                 // The step taken, drawn frame by frame.
                 let mut drawn = sloth;
                 let m = &mut drawn.limbs[li];
-                m.from = m.grip.point;
-                m.from_normal = m.grip.normal;
-                m.from_support = m.grip.support;
-                m.grip.point = grip;
-                m.phase = LimbPhase::Swinging;
-                m.swing_t = 0.0;
+                m.swing_to(Grip {
+                    point: grip,
+                    ..m.grip
+                });
                 probes += 1;
                 for n in 1..=(arc.window / dt) as usize {
                     drawn.body_average(view, dt);
@@ -1213,14 +1211,12 @@ mod tests {
         // The step drawn frame by frame: its deepest body.
         let mut drawn = sloth;
         let m = &mut drawn.limbs[li];
-        m.from = m.grip.point;
-        m.from_normal = m.grip.normal;
-        m.from_support = m.grip.support;
-        m.grip.point = grip;
-        m.grip.normal = normal;
-        m.grip.support = support;
-        m.phase = LimbPhase::Swinging;
-        m.swing_t = 0.0;
+        m.swing_to(Grip {
+            point: grip,
+            normal,
+            support,
+            ..m.grip
+        });
         let mut deepest = f32::NEG_INFINITY;
         while drawn.any_swinging() {
             drawn.body_average(&view, 1.0 / 60.0);
