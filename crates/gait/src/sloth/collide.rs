@@ -78,6 +78,7 @@ fn torsos_penetrate(
     chunks: &[SegmentChunk],
     torsos: &[[Vec3; 2]],
     bounds: &[TorsoBound],
+    path: &[f32],
     all: &TorsoBound,
     depth: f32,
 ) -> bool {
@@ -103,17 +104,19 @@ fn torsos_penetrate(
             }
             // The last torso whose depth in this segment was measured, and
             // that depth: a torso whose ends lie near its ends is ruled out
-            // by it ([`depth_bound_rules_out`]). A step's stances come in the
-            // order of its arc, so the torso measured last is the nearest.
+            // by it ([`depth_bound_rules_out`]), their distance bounded by
+            // the path from one to the other (`path`). A step's stances come
+            // in the order of its arc, so the torso measured last is the
+            // nearest, and the torsos it rules out follow it in a run.
             let taper = (s.radii[i + 1] - s.radii[i]).abs();
             let mut last: Option<(usize, f32)> = None;
             for t in 0..torsos.len() {
-                if !(near[t] && bounds[t].may_exceed_seg(seg, depth)) {
+                if let Some((p, dp)) = last
+                    && depth_bound_rules_out(path[t] - path[p], depth - dp - taper)
+                {
                     continue;
                 }
-                if let Some((p, dp)) = last
-                    && depth_bound_rules_out(torsos[p], torsos[t], depth - dp - taper)
-                {
+                if !(near[t] && bounds[t].may_exceed_seg(seg, depth)) {
                     continue;
                 }
                 let d = segment_depth(s, i, torsos[t]);
@@ -133,17 +136,35 @@ const DEPTH_BOUND_MARGIN: f32 = 1e-3;
 
 /// Whether torso `b` is surely no deeper in a segment than `room` more than
 /// torso `a` is (`room`: the depth limit less `a`'s depth and the segment's
-/// taper |r₁ − r₀|): both of `b`'s ends lie within `room` (less
-/// [`DEPTH_BOUND_MARGIN`]) of `a`'s. Each point of `b`'s axis, `b₀ + s (b₁ − b₀)`,
-/// then lies within that distance of `a`'s point at the same `s`, so `b`'s
-/// distance to the segment is at most `a`'s plus it; the segment's radius at
-/// `b`'s closest point differs from that at `a`'s by at most the taper; so
-/// `b`'s [`segment_depth`] is at most `a`'s plus the distance plus the taper
-/// (a Lipschitz bound of the depth in the torso's ends).
+/// taper |r₁ − r₀|), given `moved`, at least the larger distance of `b`'s
+/// ends from `a`'s ([`ends_moved`], or a sum of them along a path of
+/// torsos): `moved` is within `room` less [`DEPTH_BOUND_MARGIN`]. Each point
+/// of `b`'s axis, `b₀ + s (b₁ − b₀)`, lies within `moved` of `a`'s point at
+/// the same `s`, so `b`'s distance to the segment is at most `a`'s plus
+/// `moved`; the segment's radius at `b`'s closest point differs from that at
+/// `a`'s by at most the taper; so `b`'s [`segment_depth`] is at most `a`'s
+/// plus `moved` plus the taper (a Lipschitz bound of the depth in the
+/// torso's ends). NaN rules nothing out.
 #[inline]
-fn depth_bound_rules_out(a: [Vec3; 2], b: [Vec3; 2], room: f32) -> bool {
-    let r = room - DEPTH_BOUND_MARGIN;
-    r > 0.0 && a[0].distance_squared(b[0]) <= r * r && a[1].distance_squared(b[1]) <= r * r
+fn depth_bound_rules_out(moved: f32, room: f32) -> bool {
+    moved <= room - DEPTH_BOUND_MARGIN
+}
+
+/// The larger distance of torso `b`'s ends from torso `a`'s.
+fn ends_moved(a: [Vec3; 2], b: [Vec3; 2]) -> f32 {
+    a[0].distance(b[0]).max(a[1].distance(b[1]))
+}
+
+/// The path along torsos `torsos` in their order: `path[k]` sums
+/// [`ends_moved`] from each torso to the next up to torso `k` (so
+/// `path[t] − path[p]`, `p < t`, is at least `ends_moved(torsos[p], torsos[t])`,
+/// by the triangle inequality in each end).
+fn torso_path(torsos: &[[Vec3; 2]]) -> [f32; MAX_BODIES] {
+    let mut path = [0.0; MAX_BODIES];
+    for k in 1..torsos.len() {
+        path[k] = path[k - 1] + ends_moved(torsos[k - 1], torsos[k]);
+    }
+    path
 }
 
 /// Deepest penetration of the torso capsule (radius [`BODY_RADIUS`]) into a
@@ -350,12 +371,14 @@ impl Sloth {
             std::array::from_fn(|k| TorsoBound::new(torsos.get(k).copied().unwrap_or(torsos[0])));
         let bounds = &bounds[..bodies.len()];
         let all = TorsoBound::around(bounds);
+        let path = torso_path(torsos);
         self.near_supports_once(env).any(|id| {
             torsos_penetrate(
                 scene.support(id),
                 env.adjacency.segment_chunks(id),
                 torsos,
                 bounds,
+                &path,
                 &all,
                 STANCE_MAX_PENETRATION,
             )
@@ -482,12 +505,13 @@ mod tests {
                     let bounds: Vec<TorsoBound> =
                         torsos.iter().map(|&t| TorsoBound::new(t)).collect();
                     let all = TorsoBound::around(&bounds);
+                    let path = torso_path(&torsos);
                     for depth in [-0.2, 0.0, STANCE_MAX_PENETRATION, 0.05] {
                         let one_by_one = torsos
                             .iter()
                             .any(|&t| torso_penetrates(&sup, &chunks, t, depth));
                         let at_once =
-                            torsos_penetrate(&sup, &chunks, &torsos, &bounds, &all, depth);
+                            torsos_penetrate(&sup, &chunks, &torsos, &bounds, &path, &all, depth);
                         assert_eq!(one_by_one, at_once);
                         if one_by_one {
                             hits += 1;
@@ -537,7 +561,7 @@ mod tests {
             let taper = (sup.radii[1] - sup.radii[0]).abs();
             for depth in [-0.05, 0.0, STANCE_MAX_PENETRATION, 0.02] {
                 let da = segment_depth(&sup, 0, a);
-                if depth_bound_rules_out(a, b, depth - da - taper) {
+                if depth_bound_rules_out(ends_moved(a, b), depth - da - taper) {
                     ruled_out += 1;
                     let db = segment_depth(&sup, 0, b);
                     assert!(db <= depth, "{a:?} {b:?} {q0} {q1} {depth} {da} {db}");
@@ -589,12 +613,13 @@ mod tests {
                     let bounds: Vec<TorsoBound> =
                         torsos.iter().map(|&t| TorsoBound::new(t)).collect();
                     let all = TorsoBound::around(&bounds);
+                    let path = torso_path(&torsos);
                     for depth in [-0.02, 0.0, STANCE_MAX_PENETRATION, 0.02] {
                         let one_by_one = torsos
                             .iter()
                             .any(|&t| torso_penetrates(&sup, &chunks, t, depth));
                         let at_once =
-                            torsos_penetrate(&sup, &chunks, &torsos, &bounds, &all, depth);
+                            torsos_penetrate(&sup, &chunks, &torsos, &bounds, &path, &all, depth);
                         assert_eq!(one_by_one, at_once);
                         if one_by_one {
                             hits += 1;
