@@ -92,11 +92,6 @@ fn torsos_penetrate(
         if !all.may_reach_chunk(c, depth) {
             return false;
         }
-        // The torsos whose own bound lets them reach the run.
-        let mut near = [false; MAX_BODIES];
-        for (n, b) in near.iter_mut().zip(bounds) {
-            *n = b.may_reach_chunk(c, depth);
-        }
         (k * SEGMENT_CHUNK..((k + 1) * SEGMENT_CHUNK).min(segments)).any(|i| {
             let seg = &c.segs[i - k * SEGMENT_CHUNK];
             if !all.may_exceed_seg(seg, depth) {
@@ -116,7 +111,7 @@ fn torsos_penetrate(
                 {
                     continue;
                 }
-                if !(near[t] && bounds[t].may_exceed_seg(seg, depth)) {
+                if !bounds[t].may_exceed_seg(seg, depth) {
                     continue;
                 }
                 let d = segment_depth(s, i, torsos[t]);
@@ -209,6 +204,7 @@ fn segment_depth(s: &slothsim_scene::Support, i: usize, torso: [Vec3; 2]) -> f32
 }
 
 /// The torso's bounding sphere (centre, half length).
+#[derive(Clone, Copy)]
 struct TorsoBound {
     centre: Vec3,
     half: f32,
@@ -367,8 +363,14 @@ impl Sloth {
             ];
         }
         let torsos = &torsos[..bodies.len()];
-        let bounds: [TorsoBound; MAX_BODIES] =
-            std::array::from_fn(|k| TorsoBound::new(torsos.get(k).copied().unwrap_or(torsos[0])));
+        // Only the bodies' own bounds are made (the rest stay unused).
+        let mut bounds = [TorsoBound {
+            centre: Vec3::ZERO,
+            half: 0.0,
+        }; MAX_BODIES];
+        for (b, &t) in bounds.iter_mut().zip(torsos) {
+            *b = TorsoBound::new(t);
+        }
         let bounds = &bounds[..bodies.len()];
         let all = TorsoBound::around(bounds);
         let path = torso_path(torsos);
