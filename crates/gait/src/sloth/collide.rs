@@ -78,6 +78,7 @@ fn torsos_penetrate(
     chunks: &[SegmentChunk],
     torsos: &[[Vec3; 2]],
     bounds: &[TorsoBound],
+    path: &[f32],
     all: &TorsoBound,
     depth: f32,
 ) -> bool {
@@ -91,21 +92,74 @@ fn torsos_penetrate(
         if !all.may_reach_chunk(c, depth) {
             return false;
         }
-        // The torsos whose own bound lets them reach the run.
-        let mut near = [false; MAX_BODIES];
-        for (n, b) in near.iter_mut().zip(bounds) {
-            *n = b.may_reach_chunk(c, depth);
-        }
         (k * SEGMENT_CHUNK..((k + 1) * SEGMENT_CHUNK).min(segments)).any(|i| {
             let seg = &c.segs[i - k * SEGMENT_CHUNK];
-            all.may_exceed_seg(seg, depth)
-                && (0..torsos.len()).any(|t| {
-                    near[t]
-                        && bounds[t].may_exceed_seg(seg, depth)
-                        && segment_depth(s, i, torsos[t]) > depth
-                })
+            if !all.may_exceed_seg(seg, depth) {
+                return false;
+            }
+            // The last torso whose depth in this segment was measured, and
+            // that depth: a torso whose ends lie near its ends is ruled out
+            // by it ([`depth_bound_rules_out`]), their distance bounded by
+            // the path from one to the other (`path`). A step's stances come
+            // in the order of its arc, so the torso measured last is the
+            // nearest, and the torsos it rules out follow it in a run.
+            let taper = (s.radii[i + 1] - s.radii[i]).abs();
+            let mut last: Option<(usize, f32)> = None;
+            for t in 0..torsos.len() {
+                if let Some((p, dp)) = last
+                    && depth_bound_rules_out(path[t] - path[p], depth - dp - taper)
+                {
+                    continue;
+                }
+                if !bounds[t].may_exceed_seg(seg, depth) {
+                    continue;
+                }
+                let d = segment_depth(s, i, torsos[t]);
+                if d > depth {
+                    return true;
+                }
+                last = Some((t, d));
+            }
+            false
         })
     })
+}
+
+/// Rounding allowance of [`depth_bound_rules_out`] (metres): 1 mm, far
+/// above the rounding of [`segment_depth`] at forest-scale coordinates.
+const DEPTH_BOUND_MARGIN: f32 = 1e-3;
+
+/// Whether torso `b` is surely no deeper in a segment than `room` more than
+/// torso `a` is (`room`: the depth limit less `a`'s depth and the segment's
+/// taper |r₁ − r₀|), given `moved`, at least the larger distance of `b`'s
+/// ends from `a`'s ([`ends_moved`], or a sum of them along a path of
+/// torsos): `moved` is within `room` less [`DEPTH_BOUND_MARGIN`]. Each point
+/// of `b`'s axis, `b₀ + s (b₁ − b₀)`, lies within `moved` of `a`'s point at
+/// the same `s`, so `b`'s distance to the segment is at most `a`'s plus
+/// `moved`; the segment's radius at `b`'s closest point differs from that at
+/// `a`'s by at most the taper; so `b`'s [`segment_depth`] is at most `a`'s
+/// plus `moved` plus the taper (a Lipschitz bound of the depth in the
+/// torso's ends). NaN rules nothing out.
+#[inline]
+fn depth_bound_rules_out(moved: f32, room: f32) -> bool {
+    moved <= room - DEPTH_BOUND_MARGIN
+}
+
+/// The larger distance of torso `b`'s ends from torso `a`'s.
+fn ends_moved(a: [Vec3; 2], b: [Vec3; 2]) -> f32 {
+    a[0].distance(b[0]).max(a[1].distance(b[1]))
+}
+
+/// The path along torsos `torsos` in their order: `path[k]` sums
+/// [`ends_moved`] from each torso to the next up to torso `k` (so
+/// `path[t] − path[p]`, `p < t`, is at least `ends_moved(torsos[p], torsos[t])`,
+/// by the triangle inequality in each end).
+fn torso_path(torsos: &[[Vec3; 2]]) -> [f32; MAX_BODIES] {
+    let mut path = [0.0; MAX_BODIES];
+    for k in 1..torsos.len() {
+        path[k] = path[k - 1] + ends_moved(torsos[k - 1], torsos[k]);
+    }
+    path
 }
 
 /// Deepest penetration of the torso capsule (radius [`BODY_RADIUS`]) into a
@@ -150,6 +204,7 @@ fn segment_depth(s: &slothsim_scene::Support, i: usize, torso: [Vec3; 2]) -> f32
 }
 
 /// The torso's bounding sphere (centre, half length).
+#[derive(Clone, Copy)]
 struct TorsoBound {
     centre: Vec3,
     half: f32,
@@ -308,16 +363,24 @@ impl Sloth {
             ];
         }
         let torsos = &torsos[..bodies.len()];
-        let bounds: [TorsoBound; MAX_BODIES] =
-            std::array::from_fn(|k| TorsoBound::new(torsos.get(k).copied().unwrap_or(torsos[0])));
+        // Only the bodies' own bounds are made (the rest stay unused).
+        let mut bounds = [TorsoBound {
+            centre: Vec3::ZERO,
+            half: 0.0,
+        }; MAX_BODIES];
+        for (b, &t) in bounds.iter_mut().zip(torsos) {
+            *b = TorsoBound::new(t);
+        }
         let bounds = &bounds[..bodies.len()];
         let all = TorsoBound::around(bounds);
+        let path = torso_path(torsos);
         self.near_supports_once(env).any(|id| {
             torsos_penetrate(
                 scene.support(id),
                 env.adjacency.segment_chunks(id),
                 torsos,
                 bounds,
+                &path,
                 &all,
                 STANCE_MAX_PENETRATION,
             )
@@ -444,12 +507,13 @@ mod tests {
                     let bounds: Vec<TorsoBound> =
                         torsos.iter().map(|&t| TorsoBound::new(t)).collect();
                     let all = TorsoBound::around(&bounds);
+                    let path = torso_path(&torsos);
                     for depth in [-0.2, 0.0, STANCE_MAX_PENETRATION, 0.05] {
                         let one_by_one = torsos
                             .iter()
                             .any(|&t| torso_penetrates(&sup, &chunks, t, depth));
                         let at_once =
-                            torsos_penetrate(&sup, &chunks, &torsos, &bounds, &all, depth);
+                            torsos_penetrate(&sup, &chunks, &torsos, &bounds, &path, &all, depth);
                         assert_eq!(one_by_one, at_once);
                         if one_by_one {
                             hits += 1;
@@ -461,5 +525,113 @@ mod tests {
             }
         }
         assert!(hits > 100 && misses > 100, "{hits} {misses}");
+    }
+
+    /// The depth bound of [`depth_bound_rules_out`]: where it rules a torso
+    /// out, that torso's [`segment_depth`] is within the limit. Random
+    /// segments (tapering, short and long, some nearly parallel to the
+    /// torsos) and pairs of torsos a few centimetres apart, the first placed
+    /// so that its depth lies around the limit.
+    #[test]
+    fn depth_bound_never_rules_out_a_deeper_torso() {
+        let mut rnd = xorshift(0xb0d1);
+        let mut v = || Vec3::new(rnd() - 0.5, rnd() - 0.5, rnd() - 0.5);
+        let mut ruled_out = 0;
+        for _ in 0..200_000 {
+            let q0 = v() * 40.0;
+            let len = [0.01, 0.2, 1.0][(v().x + 0.5) as usize % 3 + usize::from(v().y > 0.0)];
+            let dir = v().normalize_or(Vec3::X);
+            let q1 = q0 + dir * len;
+            let radii = vec![0.02 + (v().x + 0.5) * 0.3, 0.02 + (v().y + 0.5) * 0.3];
+            let sup = slothsim_scene::Support::new(vec![q0, q1], radii);
+            // The first torso: nearly parallel to the segment or not, its
+            // axis about BODY_RADIUS + r from the segment's (depth ~ 0).
+            let along = if v().x > 0.0 {
+                dir + v() * 0.02
+            } else {
+                v().normalize_or(Vec3::Y)
+            } * 0.3;
+            let off = dir
+                .any_orthonormal_vector()
+                .lerp(v(), 0.3)
+                .normalize_or(Vec3::Y);
+            let gap = BODY_RADIUS + sup.radii[0] + v().x * 0.04;
+            let c = q0.lerp(q1, v().y + 0.5) + off * gap;
+            let a = [c - along, c + along];
+            let step = [0.002, 0.01, 0.05][(v().z + 0.5) as usize % 3 + usize::from(v().x > 0.2)];
+            let b = [a[0] + v() * step, a[1] + v() * step];
+            let taper = (sup.radii[1] - sup.radii[0]).abs();
+            for depth in [-0.05, 0.0, STANCE_MAX_PENETRATION, 0.02] {
+                let da = segment_depth(&sup, 0, a);
+                if depth_bound_rules_out(ends_moved(a, b), depth - da - taper) {
+                    ruled_out += 1;
+                    let db = segment_depth(&sup, 0, b);
+                    assert!(db <= depth, "{a:?} {b:?} {q0} {q1} {depth} {da} {db}");
+                }
+            }
+        }
+        assert!(ruled_out > 20_000, "{ruled_out}");
+    }
+
+    /// A step's arc of torsos (sixteen, each a few millimetres to
+    /// centimetres on from the last, turning as they go) passing along and
+    /// into random polylines: [`torsos_penetrate`], which rules torsos out by
+    /// the depth of the last one measured, gives the answer of each torso
+    /// tested on its own.
+    #[test]
+    fn torsos_along_an_arc_match_one_by_one() {
+        let mut rnd = xorshift(0xa7c5);
+        let (mut hits, mut misses) = (0, 0);
+        for n in [2usize, 3, 9, 17] {
+            for _ in 0..60 {
+                let (sup, chunks, nodes) = random_support(&mut rnd, n);
+                for _ in 0..300 {
+                    let k = (rnd() * (n - 1) as f32) as usize;
+                    let axis = nodes[k + 1] - nodes[k];
+                    let near = nodes[k].lerp(nodes[k + 1], rnd());
+                    let r = sup.radii[k];
+                    let side = axis
+                        .any_orthonormal_vector()
+                        .lerp(Vec3::new(rnd() - 0.5, rnd() - 0.5, rnd() - 0.5), 0.5)
+                        .normalize_or(Vec3::Y);
+                    let mut c = near + side * (BODY_RADIUS + r + (rnd() - 0.5) * 0.06);
+                    let mut along = if rnd() > 0.5 {
+                        axis.normalize_or(Vec3::X)
+                    } else {
+                        Vec3::new(rnd() - 0.5, rnd() - 0.5, rnd() - 0.5).normalize_or(Vec3::Z)
+                    } * 0.25;
+                    let step = [0.003, 0.01, 0.03][(rnd() * 3.0) as usize % 3];
+                    let count = 2 + (rnd() * (MAX_BODIES - 1) as f32) as usize % (MAX_BODIES - 1);
+                    let torsos: Vec<[Vec3; 2]> = (0..count)
+                        .map(|_| {
+                            c += Vec3::new(rnd() - 0.5, rnd() - 0.5, rnd() - 0.5) * step;
+                            along = (along
+                                + Vec3::new(rnd() - 0.5, rnd() - 0.5, rnd() - 0.5) * step)
+                                .normalize_or(Vec3::Z)
+                                * 0.25;
+                            [c - along, c + along]
+                        })
+                        .collect();
+                    let bounds: Vec<TorsoBound> =
+                        torsos.iter().map(|&t| TorsoBound::new(t)).collect();
+                    let all = TorsoBound::around(&bounds);
+                    let path = torso_path(&torsos);
+                    for depth in [-0.02, 0.0, STANCE_MAX_PENETRATION, 0.02] {
+                        let one_by_one = torsos
+                            .iter()
+                            .any(|&t| torso_penetrates(&sup, &chunks, t, depth));
+                        let at_once =
+                            torsos_penetrate(&sup, &chunks, &torsos, &bounds, &path, &all, depth);
+                        assert_eq!(one_by_one, at_once);
+                        if one_by_one {
+                            hits += 1;
+                        } else {
+                            misses += 1;
+                        }
+                    }
+                }
+            }
+        }
+        assert!(hits > 1_000 && misses > 1_000, "{hits} {misses}");
     }
 }
