@@ -15,6 +15,17 @@
 //! partner left with no step at all (98.604°, 100.466°, 104.9°, 115.09°,
 //! 150.3°) lost; each passes on main. After such a step the partner's step
 //! comes once the fore limbs have moved.
+//!
+//! The third test holds a partner left with no step that the fore limbs'
+//! steps never freed: at 0.2 m, 131.6° (main 8a3f399; 131.5° and 131.7°
+//! pass), RH took the trunk 0.30 m up past LH (at the branch's root) at
+//! 33.7 s; every trunk grip of LH then left RH past its reach band at the
+//! end of the step (0.395–0.434 m against 0.388 m) or passed LF (leg
+//! order), every retreat of RH down the trunk took LH past its band 30 %
+//! into the swing, and the back-offs moved LF only: `no_grip` at 84 s.
+//! Now a partner with no step after the hind step must have one after some
+//! step of a fore limb (a lookahead two steps deep,
+//! `Sloth::has_step_then`), one onto the new support.
 
 use slothsim::sim::TrunkVariant;
 
@@ -47,4 +58,9 @@ fn a_partner_left_with_no_step_waits_for_the_fore_limbs() {
             (150.3, 0.2),
         ],
     );
+}
+
+#[test]
+fn a_partner_left_with_no_step_gets_one_after_a_fore_step() {
+    common::assert_transfers_pass(TrunkVariant::ToTrunk, &[(131.6, 0.2)]);
 }

@@ -506,17 +506,28 @@ impl Sloth {
     /// root), and every trunk grip of LH then failed the step length, the
     /// same-side spacing to LF or RH's reach band, those of RH the girdle
     /// lead or LH's reach band: stopped `no_grip`, LH alone on the branch.
-    /// A partner with no step at all is waiting for the fore limbs: after
-    /// one of their steps it has one (0.2 m 98.604°, 104.9°, 150.3° pass so
-    /// on main and failed with the step held back; see docs/scenarios.md).
+    /// A partner with no step at all may be waiting for the fore limbs
+    /// (0.2 m 98.604°, 104.9°, 150.3° failed with the step held back; see
+    /// docs/scenarios.md): the step is taken if, after some step of a fore
+    /// limb, the partner has a step onto the new support
+    /// ([`Sloth::has_step_then`]). Trusted without that lookahead, such a
+    /// step locked 0.2 m 131.6°: RH took the trunk 0.30 m past LH, no fore
+    /// step ever gave LH a trunk grip that left RH in its reach band, and
+    /// no retreat of RH kept LH in its own (docs/locomotion.md).
     fn partner_follows(&self, env: &LocoView<'_>, at: &CandidateAt, p: &Placement) -> bool {
         let next = self.after_steps(env, [(at.limb, p.grip_at(at))]);
         let pi = p.limb.opposite().index();
-        !next.has_step(env, pi)
-            || (next.may_follow(env, pi, at.support)
-                && next
-                    .neighbour_search(env, pi, at.support, 0)
-                    .is_some_and(|sr| next.range_has_step(env, pi, &sr)))
+        let onto_new = |s: &Sloth| {
+            s.may_follow(env, pi, at.support)
+                && s.neighbour_search(env, pi, at.support, 0)
+                    .is_some_and(|sr| s.range_has_step(env, pi, &sr))
+        };
+        if next.has_step(env, pi) {
+            return onto_new(&next);
+        }
+        [Limb::LF, Limb::RF]
+            .iter()
+            .any(|f| next.has_step_then(env, f.index(), onto_new))
     }
 
     /// Stage 3: leg order (thesis `CheckLegsOrder`), measured along the

@@ -520,6 +520,51 @@ impl Sloth {
         })
     }
 
+    /// Whether limb `li` has a step (a candidate [`Self::has_step`] would
+    /// find: on its own support or an admissible neighbour, every
+    /// [`LOOKAHEAD_STRIDE`], no traces) after which `then` holds of the
+    /// sloth: a lookahead two steps deep. Each passing candidate places the
+    /// body again, so it is kept to the rare stance that needs it
+    /// ([`Sloth::partner_follows`]).
+    pub(super) fn has_step_then(
+        &self,
+        env: &LocoView<'_>,
+        li: usize,
+        then: impl Fn(&Sloth) -> bool,
+    ) -> bool {
+        let g = self.limbs[li].grip;
+        let scan = |sr: &Search| {
+            let len = env.scene().support(sr.support).length();
+            let mut u = sr.next_u;
+            while (u - sr.last_u) * sr.sdir >= -1e-6 {
+                if (env.cfg.end_margin_m..=len - env.cfg.end_margin_m).contains(&u)
+                    && let Some((_, c)) =
+                        self.candidate(env, &CandidateAt::probe(li, sr, u), &mut 0)
+                {
+                    let grip = Grip {
+                        point: c.point,
+                        normal: c.out,
+                        support: c.support,
+                        u: c.u,
+                        sdir: c.sdir,
+                    };
+                    if then(&self.after_steps(env, [(li, grip)])) {
+                        return true;
+                    }
+                }
+                u -= sr.sdir * LOOKAHEAD_STRIDE;
+            }
+            false
+        };
+        scan(&self.own_search(env, li))
+            || env.adjacency.neighbours(g.support).iter().any(|&sid| {
+                self.may_follow(env, li, sid)
+                    && self
+                        .neighbour_search(env, li, sid, 0)
+                        .is_some_and(|sr| scan(&sr))
+            })
+    }
+
     /// Whether limb `li` has a forward candidate in range `sr` passing the
     /// cheap checks and the reach check (no traces; every
     /// [`LOOKAHEAD_STRIDE`]).
