@@ -460,7 +460,51 @@ impl Sloth {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::sloth::test_util::xorshift;
+    use crate::sloth::test_util::{walk_presets, xorshift};
+
+    /// The list a step check shares among its body tests
+    /// (`near_supports_list`) is `near_supports` each once, in the order of
+    /// first mention, and a body test over it answers as one over
+    /// `near_supports` itself (every preset's walk, bodies moved up to 0.3 m
+    /// around the sloth's own).
+    #[test]
+    fn near_supports_list_matches_near_supports() {
+        let mut rnd = xorshift(0x4e45);
+        let (mut bodies, mut hits) = (0, 0);
+        walk_presets(10, |_, view, _, sloth| {
+            let list = sloth.near_supports_list(view);
+            let mut want: Vec<SupportId> = Vec::new();
+            for id in sloth.near_supports(view) {
+                if !want.contains(&id) {
+                    want.push(id);
+                }
+            }
+            assert_eq!(list.iter().collect::<Vec<_>>(), want);
+            let scene = view.scene();
+            for _ in 0..8 {
+                let d = Vec3::new(rnd() - 0.5, rnd() - 0.5, rnd() - 0.5) * 0.6;
+                let (pos, rot) = (sloth.body_pos + d, sloth.body_rot);
+                let torso = [
+                    pos + rot * view.rig.torso_ms[0],
+                    pos + rot * view.rig.torso_ms[1],
+                ];
+                let each = sloth.near_supports(view).any(|id| {
+                    torso_penetrates(scene.support(id), &[], torso, STANCE_MAX_PENETRATION)
+                });
+                assert_eq!(Sloth::body_penetrates_near(view, &list, pos, rot), each);
+                assert_eq!(
+                    Sloth::bodies_penetrate_near(view, &list, &[(sloth.body_pos, rot), (pos, rot)]),
+                    each || sloth.body_penetrates(view, sloth.body_pos, rot)
+                );
+                bodies += 1;
+                hits += usize::from(each);
+            }
+        });
+        assert!(
+            hits > 0 && hits < bodies,
+            "{hits} of {bodies} bodies in a support"
+        );
+    }
 
     /// A random polyline support of `n` nodes (radii 0.02–0.32 m), its
     /// segment chunks and its nodes.
