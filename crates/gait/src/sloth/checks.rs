@@ -4,6 +4,8 @@
 //! step passes through (arc points and landing) keeps each planted claw
 //! within reach of its grip and the body out of the supports.
 
+use std::cell::OnceCell;
+
 use glam::{Quat, Vec3};
 use slothsim_rig::{CcdParams, CcdResult, ChainPose, Limb, RootTransform};
 use slothsim_scene::{SupportId, SupportKind};
@@ -12,7 +14,7 @@ use super::body::{
     BodyOffset, BodySide, body_offset, hind_back_share, kind_blend, rotation_from, swing_lift_dir,
     swing_point, swing_point_along, trunk_blend, trunk_kind,
 };
-use super::collide::{torso_box_meets, torso_within};
+use super::collide::{NearSupports, torso_box_meets, torso_within};
 use super::solve::lanes8;
 use super::transfer::transfer_not_taken;
 use super::turn::{Turn, TurnStep};
@@ -393,6 +395,10 @@ impl Sloth {
             let (grips, tol, offset, me) = stance_parts(at);
             me.place_stance(env, grips, tol, offset)
         };
+        // The supports near the grips, listed once for the body tests below
+        // (all of this sloth as it stands), at the first of them.
+        let near = OnceCell::new();
+        let near = || near.get_or_init(|| self.near_supports_list(env));
         // The stances' reach bands and bodies first: they cost a fraction of
         // the arc's sixteen bodies below, and every check here is pure (the
         // order only decides how early a step is rejected). The end stance
@@ -401,11 +407,11 @@ impl Sloth {
         // farthest along), so those cost one stance instead of four. Each
         // other stance's reach band is tested as it is placed.
         let Some(stances) = stances_in_band_end_first(env, stance_at, |st| {
-            !self.body_penetrates(env, st.placed.pos, st.placed.rot)
+            !Self::body_penetrates_near(env, near(), st.placed.pos, st.placed.rot)
         }) else {
             return false;
         };
-        if !self.bodies_clear(env, &stances, true) {
+        if !self.bodies_clear(env, near(), &stances, true) {
             return false;
         }
         let scene = env.scene();
@@ -517,8 +523,14 @@ impl Sloth {
         // IK fails 30 % of the steps that need this test, the test 0.1 %
         // (every check here is pure: the order only decides how early a
         // step is rejected).
-        !((kind_change || self.hang_trunk.is_some() || self.free_support_within_step(env))
-            && self.arc_body_penetrates(env, &stance_at))
+        if !(kind_change || self.hang_trunk.is_some() || self.free_support_within_step(env, near()))
+        {
+            return true;
+        }
+        !self.arc_body_penetrates(env, near(), |t| {
+            let st = stance_at(Some(t));
+            (st.pos, st.rot)
+        })
     }
 
     /// Whether every limb reaches the grip it holds, within its reach band
@@ -576,14 +588,17 @@ impl Sloth {
     /// along the branch). A branch the limbs hold is left out: the body
     /// hangs from it, always within a step. The support's bounding box
     /// first, then its segments' capsules.
-    fn free_support_within_step(&self, env: &LocoView<'_>) -> bool {
+    ///
+    /// `near`: this sloth's near supports (`Sloth::near_supports`, each
+    /// once: the same `any`).
+    fn free_support_within_step(&self, env: &LocoView<'_>, near: &NearSupports) -> bool {
         let scene = env.scene();
         let torso = [
             self.body_pos + self.body_rot * env.rig.torso_ms[0],
             self.body_pos + self.body_rot * env.rig.torso_ms[1],
         ];
         let held = self.limb_map(|l| l.grip.support);
-        self.near_supports(env).any(|id| {
+        near.iter().any(|id| {
             (scene.support(id).kind == SupportKind::Trunk || !held.contains(&id))
                 && torso_box_meets(env, torso, env.cfg.max_step_m, id)
                 && torso_within(
@@ -595,20 +610,19 @@ impl Sloth {
         })
     }
 
-    /// Whether the body, placed as `stance` places it at each of
-    /// [`TRANSFER_BODY_CHECKS`]'s points of a step's arc, enters a support:
-    /// all the arc's bodies are placed first and tested together (the
-    /// supports near the grips looked up once, `Sloth::bodies_penetrate`).
+    /// Whether the body, placed by `body` (position, rotation) at each of
+    /// [`TRANSFER_BODY_CHECKS`]'s points of a step's arc, enters a support
+    /// among `near` (this sloth's): all the arc's bodies are placed first and
+    /// tested together (`Sloth::bodies_penetrate_near`).
     fn arc_body_penetrates(
         &self,
         env: &LocoView<'_>,
-        mut stance: impl FnMut(Option<f32>) -> PlacedStance,
+        near: &NearSupports,
+        mut body: impl FnMut(f32) -> (Vec3, Quat),
     ) -> bool {
-        let bodies: [(Vec3, Quat); TRANSFER_BODY_CHECKS.len()] = std::array::from_fn(|k| {
-            let st = stance(Some(TRANSFER_BODY_CHECKS[k]));
-            (st.pos, st.rot)
-        });
-        self.bodies_penetrate(env, &bodies)
+        let bodies: [(Vec3, Quat); TRANSFER_BODY_CHECKS.len()] =
+            std::array::from_fn(|k| body(TRANSFER_BODY_CHECKS[k]));
+        Self::bodies_penetrate_near(env, near, &bodies)
     }
 
     /// The hind pair's step onto a branch (`transfer_to_branch`): the largest
@@ -784,8 +798,12 @@ impl Sloth {
         let Some(stances) = stances_in_band(env, stance) else {
             return false;
         };
-        self.bodies_clear(env, &stances, false)
-            && !self.arc_body_penetrates(env, &stance)
+        let near = self.near_supports_list(env);
+        self.bodies_clear(env, &near, &stances, false)
+            && !self.arc_body_penetrates(env, &near, |t| {
+                let st = stance(Some(t));
+                (st.pos, st.rot)
+            })
             && self.stances_hold(env, &stances)
     }
 
@@ -838,17 +856,19 @@ impl Sloth {
     /// root within its reach band of its grip, and the bodies clear of the
     /// supports.
     fn stances_clear(&self, env: &LocoView<'_>, stances: &[StanceCheck]) -> bool {
-        stances.iter().all(|st| in_band(env, st)) && self.bodies_clear(env, stances, false)
+        stances.iter().all(|st| in_band(env, st))
+            && self.bodies_clear(env, &self.near_supports_list(env), stances, false)
     }
 
     /// The part of [`Self::stances_clear`] after the reach bands: the
     /// stances' bodies clear of the supports. `end_body_tested`: the last
     /// stance's (the end's) body is already tested clear and is not tested
-    /// again (the same answer: `bodies_penetrate` is an `any` over the
+    /// again (the same answer: `bodies_penetrate_near` is an `any` over the
     /// bodies, see [`stances_in_band_end_first`]).
     fn bodies_clear(
         &self,
         env: &LocoView<'_>,
+        near: &NearSupports,
         stances: &[StanceCheck],
         end_body_tested: bool,
     ) -> bool {
@@ -869,8 +889,9 @@ impl Sloth {
         };
         let n = stances.len();
         let n_body = n - usize::from(end_body_tested && n > 0);
-        !(self.bodies_penetrate(env, &bodies(BodySide::Body)[..n_body])
-            || (trunk_walk && self.bodies_penetrate(env, &bodies(BodySide::Grips)[..n])))
+        !(Self::bodies_penetrate_near(env, near, &bodies(BodySide::Body)[..n_body])
+            || (trunk_walk
+                && Self::bodies_penetrate_near(env, near, &bodies(BodySide::Grips)[..n])))
     }
 
     /// The CCD part of [`Self::step_reachable`]: every limb with a finite
@@ -1298,8 +1319,12 @@ mod tests {
                         let new = stances_in_band_end_first(view, stance_at, |st| {
                             !sloth.body_penetrates(view, st.placed.pos, st.placed.rot)
                         });
-                        let old_ok = old.is_some_and(|st| sloth.bodies_clear(view, &st, false));
-                        let new_ok = new.is_some_and(|st| sloth.bodies_clear(view, &st, true));
+                        let old_ok = old.is_some_and(|st| {
+                            sloth.bodies_clear(view, &sloth.near_supports_list(view), &st, false)
+                        });
+                        let new_ok = new.is_some_and(|st| {
+                            sloth.bodies_clear(view, &sloth.near_supports_list(view), &st, true)
+                        });
                         assert_eq!(
                             old_ok,
                             new_ok,

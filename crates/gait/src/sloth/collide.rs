@@ -5,6 +5,7 @@
 
 use glam::{Quat, Vec3};
 use slothsim_scene::SupportId;
+use smallvec::SmallVec;
 
 use crate::path::{SEGMENT_CHUNK, SegmentBound, SegmentChunk};
 use crate::rigdata::BODY_RADIUS;
@@ -14,7 +15,7 @@ use super::{LocoView, Sloth};
 /// A step may not put the body deeper than this into a support.
 pub(super) const STANCE_MAX_PENETRATION: f32 = 0.005;
 
-/// Most bodies [`Sloth::bodies_penetrate`] takes at once.
+/// Most bodies [`Sloth::bodies_penetrate_near`] takes at once.
 pub(super) const MAX_BODIES: usize = 16;
 
 /// Whether the torso capsule enters a support deeper than `depth`: the same
@@ -321,20 +322,45 @@ pub(super) fn torso_box_meets(
     !(blo.cmpgt(hi).any() || bhi.cmplt(lo).any())
 }
 
+/// A sloth's [`Sloth::near_supports`] listed once
+/// ([`Sloth::near_supports_list`]): a step check tests the bodies of its
+/// stances, of its arc and of its end against the supports near the grips
+/// of the sloth as it stands, the same list each time (the same supports in
+/// the same order, so each test is the same `any` over the same pure tests).
+pub(super) struct NearSupports(SmallVec<[SupportId; 32]>);
+
+impl NearSupports {
+    /// The supports, in [`Sloth::near_supports`]'s order.
+    pub(super) fn iter(&self) -> impl Iterator<Item = SupportId> + '_ {
+        self.0.iter().copied()
+    }
+}
+
 impl Sloth {
     /// Whether a body at (`pos`, `rot`) would enter a support near the grips
     /// (e.g. walking a branch into its trunk).
     ///
-    /// Each support is tested once ([`Self::near_supports_once`]), with the
+    /// Each support is tested once ([`Self::near_supports_list`]), with the
     /// torso's bound made once: the same `any` over the same pure tests.
     pub(super) fn body_penetrates(&self, env: &LocoView<'_>, pos: Vec3, rot: Quat) -> bool {
+        Self::body_penetrates_near(env, &self.near_supports_list(env), pos, rot)
+    }
+
+    /// [`Self::body_penetrates`] among the supports `near` (a sloth's
+    /// [`NearSupports`]).
+    pub(super) fn body_penetrates_near(
+        env: &LocoView<'_>,
+        near: &NearSupports,
+        pos: Vec3,
+        rot: Quat,
+    ) -> bool {
         let scene = env.scene();
         let torso = [
             pos + rot * env.rig.torso_ms[0],
             pos + rot * env.rig.torso_ms[1],
         ];
         let bound = TorsoBound::new(torso);
-        self.near_supports_once(env).any(|id| {
+        near.0.iter().any(|&id| {
             torso_penetrates_bounded(
                 scene.support(id),
                 env.adjacency.segment_chunks(id),
@@ -346,10 +372,15 @@ impl Sloth {
     }
 
     /// Whether any of the bodies `bodies` (position, rotation; at most
-    /// [`MAX_BODIES`]) would enter a support near the grips: the same as
-    /// `bodies.iter().any(|&(pos, rot)| self.body_penetrates(env, pos, rot))`,
-    /// the supports looked up once for all of them (see [`torsos_penetrate`]).
-    pub(super) fn bodies_penetrate(&self, env: &LocoView<'_>, bodies: &[(Vec3, Quat)]) -> bool {
+    /// [`MAX_BODIES`]) would enter a support among `near` (a sloth's
+    /// [`NearSupports`]): the same as
+    /// `bodies.iter().any(|&(pos, rot)| Self::body_penetrates_near(env, near, pos, rot))`,
+    /// each support looked up once for all of them (see [`torsos_penetrate`]).
+    pub(super) fn bodies_penetrate_near(
+        env: &LocoView<'_>,
+        near: &NearSupports,
+        bodies: &[(Vec3, Quat)],
+    ) -> bool {
         assert!(bodies.len() <= MAX_BODIES, "at most {MAX_BODIES} bodies");
         if bodies.is_empty() {
             return false;
@@ -374,7 +405,7 @@ impl Sloth {
         let bounds = &bounds[..bodies.len()];
         let all = TorsoBound::around(bounds);
         let path = torso_path(torsos);
-        self.near_supports_once(env).any(|id| {
+        near.0.iter().any(|&id| {
             torsos_penetrate(
                 scene.support(id),
                 env.adjacency.segment_chunks(id),
@@ -401,32 +432,79 @@ impl Sloth {
             })
     }
 
-    /// [`Self::near_supports`], each support once (a held support is also
-    /// its held neighbour's neighbour); past 32 distinct supports, one may
-    /// come twice.
-    fn near_supports_once<'w>(
-        &self,
-        env: &'w LocoView<'_>,
-    ) -> impl Iterator<Item = SupportId> + 'w {
-        let mut seen = [SupportId(u32::MAX); 32];
-        let mut n_seen = 0;
-        self.near_supports(env).filter(move |&id| {
-            if seen[..n_seen].contains(&id) {
-                return false;
+    /// [`Self::near_supports_list`] listed, for the several body tests of
+    /// one step check.
+    /// Each support once, in the order of its first mention (a held
+    /// support is also its held neighbour's neighbour).
+    pub(super) fn near_supports_list(&self, env: &LocoView<'_>) -> NearSupports {
+        let mut ids = SmallVec::new();
+        let mut add = |id: SupportId| {
+            if !ids.contains(&id) {
+                ids.push(id);
             }
-            if n_seen < seen.len() {
-                seen[n_seen] = id;
-                n_seen += 1;
+        };
+        for k in 0..4 {
+            let held = self.limbs[k].grip.support;
+            if (0..k).any(|j| self.limbs[j].grip.support == held) {
+                continue;
             }
-            true
-        })
+            add(held);
+            for &id in env.adjacency.neighbours(held) {
+                add(id);
+            }
+        }
+        NearSupports(ids)
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::sloth::test_util::xorshift;
+    use crate::sloth::test_util::{walk_presets, xorshift};
+
+    /// The list a step check shares among its body tests
+    /// (`near_supports_list`) is `near_supports` each once, in the order of
+    /// first mention, and a body test over it answers as one over
+    /// `near_supports` itself (every preset's walk, bodies moved up to 0.3 m
+    /// around the sloth's own).
+    #[test]
+    fn near_supports_list_matches_near_supports() {
+        let mut rnd = xorshift(0x4e45);
+        let (mut bodies, mut hits) = (0, 0);
+        walk_presets(10, |_, view, _, sloth| {
+            let list = sloth.near_supports_list(view);
+            let mut want: Vec<SupportId> = Vec::new();
+            for id in sloth.near_supports(view) {
+                if !want.contains(&id) {
+                    want.push(id);
+                }
+            }
+            assert_eq!(list.iter().collect::<Vec<_>>(), want);
+            let scene = view.scene();
+            for _ in 0..8 {
+                let d = Vec3::new(rnd() - 0.5, rnd() - 0.5, rnd() - 0.5) * 0.6;
+                let (pos, rot) = (sloth.body_pos + d, sloth.body_rot);
+                let torso = [
+                    pos + rot * view.rig.torso_ms[0],
+                    pos + rot * view.rig.torso_ms[1],
+                ];
+                let each = sloth.near_supports(view).any(|id| {
+                    torso_penetrates(scene.support(id), &[], torso, STANCE_MAX_PENETRATION)
+                });
+                assert_eq!(Sloth::body_penetrates_near(view, &list, pos, rot), each);
+                assert_eq!(
+                    Sloth::bodies_penetrate_near(view, &list, &[(sloth.body_pos, rot), (pos, rot)]),
+                    each || sloth.body_penetrates(view, sloth.body_pos, rot)
+                );
+                bodies += 1;
+                hits += usize::from(each);
+            }
+        });
+        assert!(
+            hits > 0 && hits < bodies,
+            "{hits} of {bodies} bodies in a support"
+        );
+    }
 
     /// A random polyline support of `n` nodes (radii 0.02–0.32 m), its
     /// segment chunks and its nodes.
