@@ -562,6 +562,33 @@ mod tests {
     /// Several torsos at once (with the bound around them all): the same
     /// answer as each torso on its own, on random polylines and clusters of
     /// torsos (close, as a step's stances, and far apart).
+    /// [`torsos_penetrate`] over `torsos` at each of `depths` gives the answer
+    /// of each torso tested on its own; counts the hits and misses.
+    fn at_once_matches_one_by_one(
+        sup: &slothsim_scene::Support,
+        chunks: &[SegmentChunk],
+        torsos: &[[Vec3; 2]],
+        depths: [f32; 4],
+        hits: &mut usize,
+        misses: &mut usize,
+    ) {
+        let bounds: Vec<TorsoBound> = torsos.iter().map(|&t| TorsoBound::new(t)).collect();
+        let all = TorsoBound::around(&bounds);
+        let path = torso_path(torsos);
+        for depth in depths {
+            let one_by_one = torsos
+                .iter()
+                .any(|&t| torso_penetrates(sup, chunks, t, depth));
+            let at_once = torsos_penetrate(sup, chunks, torsos, &bounds, &path, &all, depth);
+            assert_eq!(one_by_one, at_once);
+            if one_by_one {
+                *hits += 1;
+            } else {
+                *misses += 1;
+            }
+        }
+    }
+
     #[test]
     fn torsos_at_once_match_one_by_one() {
         let mut rnd = xorshift(0x5eed);
@@ -582,23 +609,15 @@ mod tests {
                             [ck - d, ck + d]
                         })
                         .collect();
-                    let bounds: Vec<TorsoBound> =
-                        torsos.iter().map(|&t| TorsoBound::new(t)).collect();
-                    let all = TorsoBound::around(&bounds);
-                    let path = torso_path(&torsos);
-                    for depth in [-0.2, 0.0, STANCE_MAX_PENETRATION, 0.05] {
-                        let one_by_one = torsos
-                            .iter()
-                            .any(|&t| torso_penetrates(&sup, &chunks, t, depth));
-                        let at_once =
-                            torsos_penetrate(&sup, &chunks, &torsos, &bounds, &path, &all, depth);
-                        assert_eq!(one_by_one, at_once);
-                        if one_by_one {
-                            hits += 1;
-                        } else {
-                            misses += 1;
-                        }
-                    }
+                    let depths = [-0.2, 0.0, STANCE_MAX_PENETRATION, 0.05];
+                    at_once_matches_one_by_one(
+                        &sup,
+                        &chunks,
+                        &torsos,
+                        depths,
+                        &mut hits,
+                        &mut misses,
+                    );
                 }
             }
         }
@@ -690,23 +709,15 @@ mod tests {
                             [c - along, c + along]
                         })
                         .collect();
-                    let bounds: Vec<TorsoBound> =
-                        torsos.iter().map(|&t| TorsoBound::new(t)).collect();
-                    let all = TorsoBound::around(&bounds);
-                    let path = torso_path(&torsos);
-                    for depth in [-0.02, 0.0, STANCE_MAX_PENETRATION, 0.02] {
-                        let one_by_one = torsos
-                            .iter()
-                            .any(|&t| torso_penetrates(&sup, &chunks, t, depth));
-                        let at_once =
-                            torsos_penetrate(&sup, &chunks, &torsos, &bounds, &path, &all, depth);
-                        assert_eq!(one_by_one, at_once);
-                        if one_by_one {
-                            hits += 1;
-                        } else {
-                            misses += 1;
-                        }
-                    }
+                    let depths = [-0.02, 0.0, STANCE_MAX_PENETRATION, 0.02];
+                    at_once_matches_one_by_one(
+                        &sup,
+                        &chunks,
+                        &torsos,
+                        depths,
+                        &mut hits,
+                        &mut misses,
+                    );
                 }
             }
         }
