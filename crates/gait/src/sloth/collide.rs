@@ -563,14 +563,14 @@ mod tests {
     /// answer as each torso on its own, on random polylines and clusters of
     /// torsos (close, as a step's stances, and far apart).
     /// [`torsos_penetrate`] over `torsos` at each of `depths` gives the answer
-    /// of each torso tested on its own; counts the hits and misses.
+    /// of each torso tested on its own; counts the hits (`counts[0]`) and
+    /// misses (`counts[1]`).
     fn at_once_matches_one_by_one(
         sup: &slothsim_scene::Support,
         chunks: &[SegmentChunk],
         torsos: &[[Vec3; 2]],
         depths: [f32; 4],
-        hits: &mut usize,
-        misses: &mut usize,
+        counts: &mut [usize; 2],
     ) {
         let bounds: Vec<TorsoBound> = torsos.iter().map(|&t| TorsoBound::new(t)).collect();
         let all = TorsoBound::around(&bounds);
@@ -581,18 +581,14 @@ mod tests {
                 .any(|&t| torso_penetrates(sup, chunks, t, depth));
             let at_once = torsos_penetrate(sup, chunks, torsos, &bounds, &path, &all, depth);
             assert_eq!(one_by_one, at_once);
-            if one_by_one {
-                *hits += 1;
-            } else {
-                *misses += 1;
-            }
+            counts[usize::from(!one_by_one)] += 1;
         }
     }
 
     #[test]
     fn torsos_at_once_match_one_by_one() {
         let mut rnd = xorshift(0x5eed);
-        let (mut hits, mut misses) = (0, 0);
+        let mut counts = [0usize; 2];
         for n in [2usize, 3, 8, 9, 17, 40] {
             for _ in 0..40 {
                 let (sup, chunks, nodes) = random_support(&mut rnd, n);
@@ -610,17 +606,11 @@ mod tests {
                         })
                         .collect();
                     let depths = [-0.2, 0.0, STANCE_MAX_PENETRATION, 0.05];
-                    at_once_matches_one_by_one(
-                        &sup,
-                        &chunks,
-                        &torsos,
-                        depths,
-                        &mut hits,
-                        &mut misses,
-                    );
+                    at_once_matches_one_by_one(&sup, &chunks, &torsos, depths, &mut counts);
                 }
             }
         }
+        let [hits, misses] = counts;
         assert!(hits > 100 && misses > 100, "{hits} {misses}");
     }
 
@@ -678,7 +668,7 @@ mod tests {
     #[test]
     fn torsos_along_an_arc_match_one_by_one() {
         let mut rnd = xorshift(0xa7c5);
-        let (mut hits, mut misses) = (0, 0);
+        let mut counts = [0usize; 2];
         for n in [2usize, 3, 9, 17] {
             for _ in 0..60 {
                 let (sup, chunks, nodes) = random_support(&mut rnd, n);
@@ -710,17 +700,11 @@ mod tests {
                         })
                         .collect();
                     let depths = [-0.02, 0.0, STANCE_MAX_PENETRATION, 0.02];
-                    at_once_matches_one_by_one(
-                        &sup,
-                        &chunks,
-                        &torsos,
-                        depths,
-                        &mut hits,
-                        &mut misses,
-                    );
+                    at_once_matches_one_by_one(&sup, &chunks, &torsos, depths, &mut counts);
                 }
             }
         }
+        let [hits, misses] = counts;
         assert!(hits > 1_000 && misses > 1_000, "{hits} {misses}");
     }
 }
