@@ -505,19 +505,29 @@ impl Sloth {
     /// Whether limb `li` has any candidate passing the cheap checks and the
     /// reach check on its support or an admissible neighbour (no traces).
     pub(super) fn has_step(&self, env: &LocoView<'_>, li: usize) -> bool {
-        let g = self.limbs[li].grip;
-        let scan = |sr: &Search| self.range_has_step(env, li, sr);
-        if scan(&self.own_search(env, li)) {
-            return true;
-        }
-        // The leading limbs change support first; the others follow
-        // (`Sloth::may_follow`).
-        env.adjacency.neighbours(g.support).iter().any(|&sid| {
-            self.may_follow(env, li, sid)
-                && self
-                    .neighbour_search(env, li, sid, 0)
-                    .is_some_and(|sr| scan(&sr))
-        })
+        self.any_search_range(env, li, |sr| self.range_has_step(env, li, sr))
+    }
+
+    /// Whether `scan` holds of limb `li`'s range on its own support or on
+    /// one of the neighbours it may take (the leading limbs change support
+    /// first; the others follow, `Sloth::may_follow`), own range first.
+    fn any_search_range(
+        &self,
+        env: &LocoView<'_>,
+        li: usize,
+        scan: impl Fn(&Search) -> bool,
+    ) -> bool {
+        scan(&self.own_search(env, li))
+            || env
+                .adjacency
+                .neighbours(self.limbs[li].grip.support)
+                .iter()
+                .any(|&sid| {
+                    self.may_follow(env, li, sid)
+                        && self
+                            .neighbour_search(env, li, sid, 0)
+                            .is_some_and(|sr| scan(&sr))
+                })
     }
 
     /// Whether limb `li` has a step (a candidate [`Self::has_step`] would
@@ -532,8 +542,7 @@ impl Sloth {
         li: usize,
         then: impl Fn(&Sloth) -> bool,
     ) -> bool {
-        let g = self.limbs[li].grip;
-        let scan = |sr: &Search| {
+        self.any_search_range(env, li, |sr| {
             let len = env.scene().support(sr.support).length();
             let mut u = sr.next_u;
             while (u - sr.last_u) * sr.sdir >= -1e-6 {
@@ -555,14 +564,7 @@ impl Sloth {
                 u -= sr.sdir * LOOKAHEAD_STRIDE;
             }
             false
-        };
-        scan(&self.own_search(env, li))
-            || env.adjacency.neighbours(g.support).iter().any(|&sid| {
-                self.may_follow(env, li, sid)
-                    && self
-                        .neighbour_search(env, li, sid, 0)
-                        .is_some_and(|sr| scan(&sr))
-            })
+        })
     }
 
     /// Whether limb `li` has a forward candidate in range `sr` passing the
