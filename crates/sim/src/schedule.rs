@@ -336,14 +336,14 @@ fn grid_rebuild(
         if let [(ids, pts)] = tables[..] {
             crowd
                 .grid
-                .rebuild_hashed_with(ids.len(), |i| (ids[i].0, &pts[i].0), &PoolJobs);
+                .update_hashed_with(ids.len(), |i| (ids[i].0, &pts[i].0), &PoolJobs);
         } else {
             // Several tables (or none): the points gathered in query order first.
             let all: Vec<(u32, &[HashedPoint; 7])> =
                 q.iter().map(|(id, pts)| (id.0, &pts.0)).collect();
             crowd
                 .grid
-                .rebuild_hashed_with(all.len(), |i| all[i], &PoolJobs);
+                .update_hashed_with(all.len(), |i| all[i], &PoolJobs);
         }
     }
     clock.frame += 1;

@@ -136,6 +136,10 @@ impl std::ops::Deref for Locomotion {
     }
 }
 
+/// How far a crowd point may move before the neighbour grid re-buckets it
+/// (see [`CrowdGrid::with_slack`]).
+pub const GRID_SLACK_M: f32 = 0.05;
+
 /// Sloths meet sloths: every sloth's body and grips from the previous tick
 /// (rebuilt at the end of each Transitions stage), present in crowd runs.
 #[derive(Resource, Clone, Debug)]
@@ -148,7 +152,7 @@ impl CrowdNeighbours {
     /// An empty structure keeping `clearance_m` between sloths.
     pub fn new(clearance_m: f32) -> Self {
         CrowdNeighbours {
-            grid: CrowdGrid::new(clearance_m),
+            grid: CrowdGrid::with_slack(clearance_m, GRID_SLACK_M),
         }
     }
 
