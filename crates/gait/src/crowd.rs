@@ -1,10 +1,14 @@
-//! Sloths meet sloths: a spatial hash of every sloth's body and grips, rebuilt
-//! once per tick from the previous tick's state, so the step search can keep
-//! a clearance from other sloths while every sloth is updated in parallel.
+//! Sloths meet sloths: a spatial hash of every sloth's body and grips, brought
+//! up to date once per tick from the previous tick's state, so the step search
+//! can keep a clearance from other sloths while every sloth is updated in
+//! parallel.
 //!
 //! The grid is built from the points in sloth-id order (a stable counting
 //! sort, in parallel jobs when the caller has workers) and only read during
-//! the tick, so results never depend on the thread count.
+//! the tick, so results never depend on the thread count. A crowd's grid is
+//! re-bucketed only when enough points have moved past a slack (see
+//! [`CrowdGrid::update_hashed_with`]); its queries test the current points,
+//! so they answer as a grid rebuilt every tick.
 
 use glam::{IVec3, Vec3};
 
@@ -279,13 +283,16 @@ impl CrowdGrid {
     ) where
         G: Fn(usize) -> (u32, &'a [HashedPoint; K]) + Sync,
     {
-        if !(self.slack > 0.0) || self.per_group != K || self.owners.len() != sloths {
+        if self.slack <= 0.0 || self.per_group != K || self.owners.len() != sloths {
             return self.rebuild_hashed_with(sloths, group, jobs);
         }
         let group = &group;
         let blocks = sloths.div_ceil(SLOTHS_PER_JOB);
         self.moved_idx.resize_with(blocks, Vec::new);
         let s2 = self.slack * self.slack;
+        // NaN (a point not finite now or at its anchor) is not near: held
+        // apart, or left out there.
+        let near = move |p: Vec3, anchor: Vec3| p.distance_squared(anchor) <= s2;
         let mut same = vec![true; blocks];
         let jobs_list: Vec<Job<'_>> = self
             .points
@@ -306,16 +313,14 @@ impl CrowdGrid {
                             *same = false;
                             return;
                         }
-                        // NaN (a point not finite now or at its anchor)
-                        // fails the test: held apart, or left out there.
                         let mut far = false;
                         for k in 0..K {
                             pts[k] = hps[k].point;
-                            far |= !(hps[k].point.distance_squared(anchors[k]) <= s2);
+                            far |= !near(hps[k].point, anchors[k]);
                         }
                         if far {
                             for k in 0..K {
-                                if !(pts[k].distance_squared(anchors[k]) <= s2) {
+                                if !near(pts[k], anchors[k]) {
                                     moved.push(((first + j) * K + k) as u32);
                                 }
                             }
