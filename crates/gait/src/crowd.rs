@@ -1,10 +1,14 @@
-//! Sloths meet sloths: a spatial hash of every sloth's body and grips, rebuilt
-//! once per tick from the previous tick's state, so the step search can keep
-//! a clearance from other sloths while every sloth is updated in parallel.
+//! Sloths meet sloths: a spatial hash of every sloth's body and grips, brought
+//! up to date once per tick from the previous tick's state, so the step search
+//! can keep a clearance from other sloths while every sloth is updated in
+//! parallel.
 //!
 //! The grid is built from the points in sloth-id order (a stable counting
 //! sort, in parallel jobs when the caller has workers) and only read during
-//! the tick, so results never depend on the thread count.
+//! the tick, so results never depend on the thread count. A crowd's grid is
+//! re-bucketed only when enough points have moved past a slack (see
+//! [`CrowdGrid::update_hashed_with`]); its queries test the current points,
+//! so they answer as a grid rebuilt every tick.
 
 use glam::{IVec3, Vec3};
 
@@ -23,8 +27,14 @@ const BUCKETS_PER_POINT: usize = 2;
 /// Sloths per job of the rebuild's counting and scattering passes.
 const SLOTHS_PER_JOB: usize = 1024;
 
-/// One staged point: cell hash, owner, position.
-type Staged = (u32, u32, Vec3);
+/// One staged point: cell hash, owner, index of the point.
+type Staged = (u32, u32, u32);
+
+/// The share of a slack grid's points that may lie farther than the slack
+/// from their anchors before [`CrowdGrid::update_hashed_with`] re-buckets
+/// them all (the points past it are held in a grid of their own, rebuilt
+/// each update, and each query searches both).
+pub const MOVED_SHARE: f32 = 1.0 / 16.0;
 
 /// Whether every point of a group is finite, by one test of the sum of
 /// their coordinates (a NaN or an infinity in any makes it non-finite):
@@ -59,10 +69,24 @@ impl Jobs for Serial {
 }
 
 /// A spatial hash over the sloths' occupied points (owner id + position).
+///
+/// Built in full by [`CrowdGrid::rebuild_hashed_with`]; a grid made by
+/// [`CrowdGrid::with_slack`] can also be kept up to date by
+/// [`CrowdGrid::update_hashed_with`], which re-buckets only when the points
+/// have moved far enough (a Verlet list's skin): its buckets hold each point
+/// where it was at the last re-bucketing (its anchor), every query tests the
+/// points where they are now, and a query walks the cells within the
+/// clearance plus the slack of its probe. A point farther than the slack from
+/// its anchor (a grip that stepped) is held, where it is now, in a small grid
+/// of its own rebuilt each frame. Every answer is that of a grid rebuilt in
+/// full from the current points.
 #[derive(Clone, Debug, Default)]
 pub struct CrowdGrid {
     /// Keep new grips at least this far from another sloth's points (metres).
     clearance: f32,
+    /// How far a point may move from its anchor and still be found through
+    /// its anchor's bucket (metres; 0: every update rebuilds in full).
+    slack: f32,
     cell: f32,
     mask: u32,
     /// Buckets per partition (the bucket count over [`PARTS`]).
@@ -70,11 +94,30 @@ pub struct CrowdGrid {
     /// `starts[s]..starts[s + 1]` index `entries` of bucket slot `s` (see
     /// [`CrowdGrid::slot`]).
     starts: Vec<u32>,
-    entries: Vec<(u32, Vec3)>,
+    /// Owner and index in `points` of each finite anchor, by bucket.
+    entries: Vec<(u32, u32)>,
+    /// Points per owner group (`K` of the last full rebuild).
+    per_group: usize,
+    /// Owner of each group, in the order the grid was given them.
+    owners: Vec<u32>,
+    /// Every group's points now (`per_group` a group, non-finite ones too).
+    points: Vec<Vec3>,
+    /// Every group's points at the last full rebuild.
+    anchors: Vec<Vec3>,
+    /// The finite points now farther than the slack from their anchors (or
+    /// not finite at their anchors), with their owners, by `x` (slack 0:
+    /// none).
+    moved: Vec<(u32, Vec3)>,
+    /// Full rebuilds so far.
+    rebuilds: u64,
     /// Scratch: the points grouped by partition, in sloth order within each.
     staging: Vec<Staged>,
     /// Scratch: points per partition counted by each job.
     counts: Vec<[u32; PARTS]>,
+    /// Scratch: the moved points' indices, per job of an update.
+    moved_idx: Vec<Vec<u32>>,
+    /// Scratch: the moved finite points' sort keys (`x`, index).
+    moved_keys: Vec<u64>,
 }
 
 /// `x.floor() as i32` (saturating, NaN → 0) without the `floorf` call the
@@ -146,11 +189,24 @@ pub struct HashedPoint {
 }
 
 impl CrowdGrid {
-    /// An empty grid keeping `clearance_m` between sloths.
+    /// An empty grid keeping `clearance_m` between sloths, rebuilt in full
+    /// by every update.
     pub fn new(clearance_m: f32) -> Self {
+        Self::with_slack(clearance_m, 0.0)
+    }
+
+    /// An empty grid keeping `clearance_m` between sloths whose
+    /// [`CrowdGrid::update_hashed_with`] re-buckets only when more than a
+    /// share of the points ([`MOVED_SHARE`]) lie farther than `slack_m`
+    /// from where they were at the last re-bucketing. Its cells are the
+    /// clearance plus the slack: a query walks more points than a grid
+    /// without slack.
+    pub fn with_slack(clearance_m: f32, slack_m: f32) -> Self {
+        let slack = slack_m.max(0.0);
         CrowdGrid {
             clearance: clearance_m,
-            cell: clearance_m.max(0.05),
+            slack,
+            cell: clearance_m.max(0.05) + slack,
             ..Default::default()
         }
     }
@@ -160,14 +216,25 @@ impl CrowdGrid {
         self.clearance
     }
 
-    /// Number of points held.
+    /// Number of finite points held at the last full rebuild.
     pub fn len(&self) -> usize {
         self.entries.len()
     }
 
     /// Whether the grid holds no points.
     pub fn is_empty(&self) -> bool {
-        self.entries.is_empty()
+        self.entries.is_empty() && self.moved.is_empty()
+    }
+
+    /// Points held apart (moved past the slack since the last full
+    /// rebuild) now.
+    pub fn moved_len(&self) -> usize {
+        self.moved.len()
+    }
+
+    /// Full rebuilds so far (by any of the rebuild or update methods).
+    pub fn rebuilds(&self) -> u64 {
+        self.rebuilds
     }
 
     /// Rebuilds the grid from `(owner, point)` pairs (order kept within a
@@ -198,14 +265,108 @@ impl CrowdGrid {
         }
     }
 
+    /// Brings the grid to `sloths` groups of points hashed by
+    /// [`CrowdGrid::hashed`] (as [`CrowdGrid::rebuild_hashed_with`]): with
+    /// the same owners in the same order as the last full rebuild, and at
+    /// most a share [`MOVED_SHARE`] of the points farther than the slack
+    /// from where they were then, only the current points are copied (and
+    /// those moved points gathered into a small grid of their own);
+    /// otherwise (no slack, other owners, more moved points) the grid is
+    /// rebuilt in full. The queries answer the same either way: that of a
+    /// full rebuild from these points. Which points count as moved is
+    /// decided point by point, so the grid is the same for any runner.
+    pub fn update_hashed_with<'a, const K: usize, G>(
+        &mut self,
+        sloths: usize,
+        group: G,
+        jobs: &impl Jobs,
+    ) where
+        G: Fn(usize) -> (u32, &'a [HashedPoint; K]) + Sync,
+    {
+        if self.slack <= 0.0 || self.per_group != K || self.owners.len() != sloths {
+            return self.rebuild_hashed_with(sloths, group, jobs);
+        }
+        let group = &group;
+        let blocks = sloths.div_ceil(SLOTHS_PER_JOB);
+        self.moved_idx.resize_with(blocks, Vec::new);
+        let s2 = self.slack * self.slack;
+        // NaN (a point not finite now or at its anchor) is not near: held
+        // apart, or left out there.
+        let near = move |p: Vec3, anchor: Vec3| p.distance_squared(anchor) <= s2;
+        let mut same = vec![true; blocks];
+        let jobs_list: Vec<Job<'_>> = self
+            .points
+            .chunks_mut(SLOTHS_PER_JOB * K)
+            .zip(self.anchors.chunks(SLOTHS_PER_JOB * K))
+            .zip(self.owners.chunks(SLOTHS_PER_JOB))
+            .zip(self.moved_idx.iter_mut())
+            .zip(same.iter_mut())
+            .enumerate()
+            .map(|(b, ((((pts, anchors), owners), moved), same))| {
+                Box::new(move || {
+                    moved.clear();
+                    let first = b * SLOTHS_PER_JOB;
+                    let groups = pts.chunks_exact_mut(K).zip(anchors.chunks_exact(K));
+                    for (j, ((pts, anchors), &owner)) in groups.zip(owners).enumerate() {
+                        let (o, hps) = group(first + j);
+                        if o != owner {
+                            *same = false;
+                            return;
+                        }
+                        let mut far = false;
+                        for k in 0..K {
+                            pts[k] = hps[k].point;
+                            far |= !near(hps[k].point, anchors[k]);
+                        }
+                        if far {
+                            for k in 0..K {
+                                if !near(pts[k], anchors[k]) {
+                                    moved.push(((first + j) * K + k) as u32);
+                                }
+                            }
+                        }
+                    }
+                }) as Job<'_>
+            })
+            .collect();
+        jobs.run(jobs_list);
+        let moved: usize = self.moved_idx.iter().map(Vec::len).sum();
+        let limit = (self.points.len() as f32 * MOVED_SHARE) as usize;
+        if same.contains(&false) || moved > limit {
+            return self.rebuild_hashed_with(sloths, group, jobs);
+        }
+        // By `x` (its bits in `f32::total_cmp`'s order), then by index: one
+        // order for any runner.
+        let (points, owners) = (&self.points, &self.owners);
+        let order = |x: f32| {
+            let b = x.to_bits();
+            (b ^ ((((b as i32) >> 31) as u32) >> 1) ^ (1 << 31)) as u64
+        };
+        self.moved_keys.clear();
+        self.moved_keys.extend(
+            self.moved_idx
+                .iter()
+                .flatten()
+                .filter(|&&i| points[i as usize].is_finite())
+                .map(|&i| order(points[i as usize].x) << 32 | i as u64),
+        );
+        self.moved_keys.sort_unstable();
+        self.moved.clear();
+        self.moved.extend(self.moved_keys.iter().map(|&k| {
+            let i = k as u32 as usize;
+            (owners[i / K], points[i])
+        }));
+    }
+
     /// Rebuilds the grid from `sloths` groups of points already hashed by
     /// [`CrowdGrid::hashed`] (`group(i)`: owner and points of the `i`-th, in
     /// id order; non-finite points are left out), running its passes as
-    /// `jobs`: count each partition's points per block of sloths, scatter
-    /// them into their partitions (blocks in order), then counting-sort each
-    /// partition into its buckets. Each pass is stable, so every bucket holds
-    /// its points in sloth order, for any runner (the same grid as
-    /// [`CrowdGrid::rebuild`] of the flattened pairs).
+    /// `jobs`: count each partition's points per block of sloths (copying
+    /// the points), scatter them into their partitions (blocks in order),
+    /// then counting-sort each partition into its buckets. Each pass is
+    /// stable, so every bucket holds its points in sloth order, for any
+    /// runner (the same grid as [`CrowdGrid::rebuild`] of the flattened
+    /// pairs).
     pub fn rebuild_hashed_with<'a, const K: usize, G>(
         &mut self,
         sloths: usize,
@@ -218,19 +379,29 @@ impl CrowdGrid {
         let blocks = sloths.div_ceil(SLOTHS_PER_JOB);
         let block = move |b: usize| b * SLOTHS_PER_JOB..((b + 1) * SLOTHS_PER_JOB).min(sloths);
         let part = |hash: u32| (hash as usize) & (PARTS - 1);
-        // 1. Points per partition, per block of sloths.
+        self.rebuilds += 1;
+        self.per_group = K;
+        self.owners.resize(sloths, 0);
+        self.points.resize(sloths * K, Vec3::ZERO);
+        self.moved.clear();
+        // 1. Points per partition, per block of sloths; the points copied.
         self.counts.clear();
         self.counts.resize(blocks, [0; PARTS]);
         jobs.run(
             self.counts
                 .iter_mut()
+                .zip(self.points.chunks_mut(SLOTHS_PER_JOB * K))
+                .zip(self.owners.chunks_mut(SLOTHS_PER_JOB))
                 .enumerate()
-                .map(|(b, counts)| {
+                .map(|(b, ((counts, points), owners))| {
                     Box::new(move || {
+                        let first = b * SLOTHS_PER_JOB;
                         for i in block(b) {
-                            let pts = group(i).1;
+                            let (owner, pts) = group(i);
+                            owners[i - first] = owner;
                             let all = all_finite(pts);
-                            for hp in pts {
+                            for (k, hp) in pts.iter().enumerate() {
+                                points[(i - first) * K + k] = hp.point;
                                 if all || hp.point.is_finite() {
                                     counts[part(hp.hash)] += 1;
                                 }
@@ -240,6 +411,9 @@ impl CrowdGrid {
                 })
                 .collect(),
         );
+        if self.slack > 0.0 {
+            self.anchors.clone_from(&self.points);
+        }
         let mut part_len = [0usize; PARTS];
         for counts in &self.counts {
             for (l, &c) in part_len.iter_mut().zip(counts) {
@@ -256,7 +430,7 @@ impl CrowdGrid {
         self.per_part = (buckets / PARTS) as u32;
         // 2. Scatter into the partitions: partition-major, then block order.
         if self.staging.len() < n {
-            self.staging.resize(n, (0, 0, Vec3::ZERO));
+            self.staging.resize(n, (0, 0, 0));
         }
         let mut rest = &mut self.staging[..n];
         let mut outs: Vec<Vec<&mut [Staged]>> =
@@ -278,10 +452,10 @@ impl CrowdGrid {
                         for i in block(b) {
                             let (owner, pts) = group(i);
                             let all = all_finite(pts);
-                            for hp in pts {
+                            for (k, hp) in pts.iter().enumerate() {
                                 if all || hp.point.is_finite() {
                                     let p = part(hp.hash);
-                                    out[p][next[p]] = (hp.hash, owner, hp.point);
+                                    out[p][next[p]] = (hp.hash, owner, (i * K + k) as u32);
                                     next[p] += 1;
                                 }
                             }
@@ -294,7 +468,7 @@ impl CrowdGrid {
         // `p * per_part ..`; its sort writes `starts[s + 1]` (the end of slot
         // `s`, which is where the next slot starts) for each of them.
         if self.entries.len() != n {
-            self.entries.resize(n, (0, Vec3::ZERO));
+            self.entries.resize(n, (0, 0));
         }
         self.starts.resize(buckets + 1, 0);
         self.starts[0] = 0;
@@ -323,9 +497,9 @@ impl CrowdGrid {
                     *x = at;
                     at += c;
                 }
-                for &(hash, owner, point) in src {
+                for &(hash, owner, idx) in src {
                     let x = &mut end[local(hash)];
-                    dst[(*x - start) as usize] = (owner, point);
+                    dst[(*x - start) as usize] = (owner, idx);
                     *x += 1;
                 }
             }));
@@ -359,19 +533,59 @@ impl CrowdGrid {
     }
 
     /// Whether a point `q` of a sloth other than `me` within the clearance
-    /// of `p` has `counts(q, |q − p|²)`.
+    /// of `p` has `counts(q, |q − p|²)`: the points found through their
+    /// anchors' buckets, then those held apart.
     #[inline]
-    fn any_within(&self, me: u32, p: Vec3, counts: impl Fn(Vec3, f32) -> bool) -> bool {
-        if self.entries.is_empty() || !p.is_finite() {
+    fn any_within(&self, me: u32, p: Vec3, counts: impl Fn(Vec3, f32) -> bool + Copy) -> bool {
+        if !p.is_finite() {
             return false;
         }
+        if !self.entries.is_empty() && self.any_held(me, p, counts) {
+            return true;
+        }
+        self.any_moved(me, p, counts)
+    }
+
+    /// [`CrowdGrid::any_within`] of the points held apart (`p` finite): those
+    /// whose `x` lies within the clearance of `p`'s, found by bisection. A
+    /// point within the clearance has `|q.x − p.x|` below it (`d²` is at
+    /// least `dx²` as rounded); the window is 1 % (and a rounding of `p.x`)
+    /// wider.
+    #[inline]
+    fn any_moved(&self, me: u32, p: Vec3, counts: impl Fn(Vec3, f32) -> bool) -> bool {
+        if self.moved.is_empty() {
+            return false;
+        }
+        let r2 = self.clearance * self.clearance;
+        let w = self.clearance * 1.01 + p.x.abs() * 1e-6;
+        let (lo, hi) = (p.x - w, p.x + w);
+        let first = self.moved.partition_point(|e| e.1.x < lo);
+        for &(owner, q) in &self.moved[first..] {
+            if q.x > hi {
+                break;
+            }
+            if owner != me {
+                let d2 = q.distance_squared(p);
+                if d2 < r2 && counts(q, d2) {
+                    return true;
+                }
+            }
+        }
+        false
+    }
+
+    /// [`CrowdGrid::any_within`] of the bucketed points alone (`p` finite).
+    #[inline]
+    fn any_held(&self, me: u32, p: Vec3, counts: impl Fn(Vec3, f32) -> bool) -> bool {
         let inv = 1.0 / self.cell;
         let c = cell_of(p, inv);
         let r2 = self.clearance * self.clearance;
-        // The cell is at least the clearance, so the 27 cells around `p` cover
-        // it; a cell whose box lies farther than the clearance from `p` holds
-        // no point within it and is not walked (see [`cell_gaps`]).
-        let [gx, gy, gz] = cell_gaps(p * inv, c, self.clearance * inv);
+        // The cell is at least the clearance plus the slack, so the 27 cells
+        // around `p` hold every anchor within that reach (a point within the
+        // clearance of `p` lies within the slack of its anchor, or is held
+        // apart); a cell whose box lies farther than that from `p` holds no
+        // such anchor and is not walked (see [`cell_gaps`]).
+        let [gx, gy, gz] = cell_gaps(p * inv, c, (self.clearance + self.slack) * inv);
         for dz in -1..=1 {
             for dy in -1..=1 {
                 for dx in -1..=1 {
@@ -380,8 +594,10 @@ impl CrowdGrid {
                     }
                     let s = self.slot(c + IVec3::new(dx, dy, dz));
                     let (s, e) = (self.starts[s] as usize, self.starts[s + 1] as usize);
-                    for &(owner, q) in &self.entries[s..e] {
+                    for &(owner, i) in &self.entries[s..e] {
                         if owner != me {
+                            // A point not finite now fails the distance test.
+                            let q = self.points[i as usize];
                             let d2 = q.distance_squared(p);
                             if d2 < r2 && counts(q, d2) {
                                 return true;
@@ -394,24 +610,34 @@ impl CrowdGrid {
         false
     }
 
-    /// Brute-force reference for [`CrowdGrid::blocked_from`] (tests).
+    /// Every current point with its owner (non-finite ones too).
+    fn current(&self) -> impl Iterator<Item = (u32, Vec3)> + '_ {
+        let per = self.per_group.max(1);
+        self.points
+            .iter()
+            .enumerate()
+            .map(move |(i, &q)| (self.owners[i / per], q))
+    }
+
+    /// Brute-force reference for [`CrowdGrid::blocked_from`] (tests): every
+    /// current point tested.
     pub fn blocked_from_brute_force(&self, me: u32, from: Vec3, p: Vec3) -> bool {
         if !from.is_finite() {
             return self.blocked_brute_force(me, p);
         }
         let r2 = self.clearance * self.clearance;
-        self.entries.iter().any(|&(o, q)| {
+        self.current().any(|(o, q)| {
             let d2 = q.distance_squared(p);
             o != me && d2 < r2 && d2 <= q.distance_squared(from)
         })
     }
 
-    /// Brute-force reference for [`CrowdGrid::blocked`] (tests).
+    /// Brute-force reference for [`CrowdGrid::blocked`] (tests): every
+    /// current point tested.
     pub fn blocked_brute_force(&self, me: u32, p: Vec3) -> bool {
         let r2 = self.clearance * self.clearance;
-        self.entries
-            .iter()
-            .any(|&(o, q)| o != me && q.distance_squared(p) < r2)
+        self.current()
+            .any(|(o, q)| o != me && q.distance_squared(p) < r2)
     }
 }
 
@@ -419,6 +645,156 @@ impl CrowdGrid {
 mod tests {
     use super::*;
     use proptest::prelude::*;
+
+    /// The bucketed points with their owners, at their current positions.
+    fn held(g: &CrowdGrid) -> Vec<(u32, Vec3)> {
+        g.entries
+            .iter()
+            .map(|&(o, i)| (o, g.points[i as usize]))
+            .collect()
+    }
+
+    /// One frame's move of a point: a drift of up to 2 cm a frame (which
+    /// passes the 5 cm slack in a few frames), now and then a step of up to
+    /// 40 cm, a point turned non-finite or finite again.
+    fn moved(p: Vec3, kind: u8, d: Vec3) -> Vec3 {
+        match kind {
+            0..=2 => Vec3::NAN,
+            3..=5 if !p.is_finite() => d * 20.0,
+            3..=9 => p + d * 20.0,
+            _ if !p.is_finite() => p,
+            _ => p + d,
+        }
+    }
+
+    proptest! {
+        /// A grid kept by [`CrowdGrid::update_hashed_with`] answers every
+        /// probe as a grid rebuilt in full from the same points and as the
+        /// brute force, frame after frame, while its points drift past the
+        /// slack, step, turn non-finite and back, and its owners change; it
+        /// is the same grid with the jobs run serially or on threads.
+        #[test]
+        fn updated_grid_matches_full_rebuild_across_frames(
+            start in prop::collection::vec(
+                prop::array::uniform7((-1.0f32..1.0, -1.0f32..1.0, -1.0f32..1.0)),
+                3..40,
+            ),
+            frames in prop::collection::vec(
+                (
+                    prop::collection::vec(
+                        prop::array::uniform7((0u8..200, -0.02f32..0.02, -0.02f32..0.02, -0.02f32..0.02)),
+                        40,
+                    ),
+                    0u8..20,
+                    prop::collection::vec(
+                        (0u32..41, 0usize..280, -1.0f32..1.0, -1.0f32..1.0, -1.0f32..1.0, 0.9f32..1.1),
+                        1..40,
+                    ),
+                ),
+                1..12,
+            ),
+        ) {
+            let clearance = 0.3;
+            let mut serial = CrowdGrid::with_slack(clearance, 0.05);
+            let mut threaded = serial.clone();
+            let mut owners: Vec<u32> = (0..start.len() as u32).collect();
+            let mut pts: Vec<[Vec3; 7]> = start
+                .iter()
+                .map(|g| g.map(|(x, y, z)| Vec3::new(x, y, z)))
+                .collect();
+            for (f, (moves, owner_change, probes)) in frames.iter().enumerate() {
+                if f > 0 {
+                    for (g, m) in pts.iter_mut().zip(moves) {
+                        for (p, &(kind, x, y, z)) in g.iter_mut().zip(m) {
+                            *p = moved(*p, kind, Vec3::new(x, y, z));
+                        }
+                    }
+                    match owner_change {
+                        0 if pts.len() > 1 => {
+                            pts.pop();
+                            owners.pop();
+                        }
+                        1 => owners[0] += 100,
+                        _ => {}
+                    }
+                }
+                let hashed: Vec<[HashedPoint; 7]> =
+                    pts.iter().map(|g| g.map(|p| serial.hashed(p))).collect();
+                let get = |i: usize| (owners[i], &hashed[i]);
+                serial.update_hashed_with(pts.len(), get, &Serial);
+                threaded.update_hashed_with(pts.len(), get, &Threads);
+                prop_assert_eq!(&serial.entries, &threaded.entries);
+                prop_assert_eq!(&serial.starts, &threaded.starts);
+                prop_assert_eq!(
+                    serial.moved.iter().map(|&(o, q)| (o, q.to_array().map(f32::to_bits))).collect::<Vec<_>>(),
+                    threaded.moved.iter().map(|&(o, q)| (o, q.to_array().map(f32::to_bits))).collect::<Vec<_>>()
+                );
+                prop_assert_eq!(serial.rebuilds(), threaded.rebuilds());
+                let mut full = CrowdGrid::new(clearance);
+                full.rebuild_groups(owners.iter().copied().zip(pts.iter().copied()));
+                let all: Vec<Vec3> = pts.iter().flatten().copied().filter(|p| p.is_finite()).collect();
+                for &(me, i, x, y, z, k) in probes {
+                    let Some(dir) = Vec3::new(x, y, z).try_normalize() else { continue };
+                    let base = if all.is_empty() { Vec3::ZERO } else { all[i % all.len()] };
+                    let p = base + dir * (clearance * k);
+                    let from = p + dir * 0.05;
+                    let b = serial.blocked(me, p);
+                    prop_assert_eq!(b, full.blocked(me, p), "frame {} probe {}", f, p);
+                    prop_assert_eq!(b, serial.blocked_brute_force(me, p));
+                    let b = serial.blocked_from(me, from, p);
+                    prop_assert_eq!(b, full.blocked_from(me, from, p), "frame {} probe {}", f, p);
+                    prop_assert_eq!(b, serial.blocked_from_brute_force(me, from, p));
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn update_re_buckets_only_past_the_moved_share() {
+        let mut g = CrowdGrid::with_slack(0.3, 0.05);
+        let mut pts: Vec<[Vec3; 7]> = (0..100)
+            .map(|i| [(); 7].map(|_| Vec3::new(i as f32 * 0.1, 0.0, 0.0)))
+            .map(|mut g| {
+                for (k, p) in g.iter_mut().enumerate() {
+                    p.y = k as f32 * 0.1;
+                }
+                g
+            })
+            .collect();
+        let update = |g: &mut CrowdGrid, pts: &[[Vec3; 7]]| {
+            let hashed: Vec<[HashedPoint; 7]> =
+                pts.iter().map(|ps| ps.map(|p| g.hashed(p))).collect();
+            g.update_hashed_with(pts.len(), |i| (i as u32, &hashed[i]), &Serial);
+        };
+        update(&mut g, &pts);
+        assert_eq!((g.rebuilds(), g.moved_len()), (1, 0));
+        // A drift within the slack and two steps past it: kept.
+        for _ in 0..4 {
+            for ps in &mut pts {
+                for p in ps.iter_mut() {
+                    p.z += 0.01;
+                }
+            }
+            update(&mut g, &pts);
+        }
+        pts[3][4].x += 0.4;
+        pts[50][0] = Vec3::NAN;
+        update(&mut g, &pts);
+        assert_eq!((g.rebuilds(), g.moved_len()), (1, 1));
+        assert!(g.blocked(7, pts[3][4] + Vec3::X * 0.29));
+        // Every point past the slack: rebuilt, none held apart.
+        for ps in &mut pts {
+            for p in ps.iter_mut() {
+                p.z += 0.02;
+            }
+        }
+        update(&mut g, &pts);
+        assert_eq!((g.rebuilds(), g.moved_len()), (2, 0));
+        // Other owners: rebuilt.
+        pts.pop();
+        update(&mut g, &pts);
+        assert_eq!(g.rebuilds(), 3);
+    }
 
     proptest! {
         #[test]
@@ -643,7 +1019,7 @@ mod tests {
                 );
                 assert_eq!(threaded.blocked(me, p), threaded.blocked_brute_force(me, p));
                 // Near a held point too (the brute force is the reference).
-                if let Some(&(_, q)) = threaded.entries.get(k * 13 % threaded.len().max(1)) {
+                if let Some(&(_, q)) = held(&threaded).get(k * 13 % threaded.len().max(1)) {
                     let p = q + Vec3::new(unit(), unit(), unit()) * 0.4 - 0.2;
                     assert_eq!(threaded.blocked(me, p), threaded.blocked_brute_force(me, p));
                 }
@@ -689,10 +1065,11 @@ mod tests {
             .collect();
         assert_eq!(g.len(), finite.len());
         assert_eq!(finite.len(), 3 * 3 + 2 + 2 + 2);
+        let held = held(&g);
         for &(o, p) in &finite {
-            assert!(g.entries.contains(&(o, p)), "finite point {p} of {o} kept");
+            assert!(held.contains(&(o, p)), "finite point {p} of {o} kept");
         }
-        assert!(g.entries.iter().all(|(_, p)| p.is_finite()));
+        assert!(held.iter().all(|(_, p)| p.is_finite()));
     }
 
     #[test]

@@ -316,9 +316,11 @@ impl Jobs for PoolJobs {
     }
 }
 
-/// The end of the tick, after [`sloth_pass`]: the neighbour grid rebuilt from
-/// the points the pass hashed (counted in Transitions' time, and on its own
-/// in [`StageTimings::grid_history`]), the frame count.
+/// The end of the tick, after [`sloth_pass`]: the neighbour grid brought up to
+/// date with the points the pass hashed (`CrowdGrid::update_hashed_with`:
+/// re-bucketed only when enough points moved past its slack; counted in
+/// Transitions' time, and on its own in [`StageTimings::grid_history`]), the
+/// frame count.
 fn grid_rebuild(
     mut crowd: Option<ResMut<CrowdNeighbours>>,
     mut clock: ResMut<SimClock>,
@@ -327,7 +329,7 @@ fn grid_rebuild(
 ) {
     let t = Instant::now();
     // Sloths meet sloths: the next tick reads this tick's bodies and grips.
-    // The same grid as `CrowdNeighbours::rebuild` of the sloths (id order).
+    // Answers as `CrowdNeighbours::rebuild` of the sloths (id order) would.
     if let Some(crowd) = crowd.as_deref_mut() {
         let tables: Vec<(&[SlothId], &[CrowdPoints])> = match q.contiguous_iter() {
             Ok(it) => it.collect(),
@@ -336,14 +338,14 @@ fn grid_rebuild(
         if let [(ids, pts)] = tables[..] {
             crowd
                 .grid
-                .rebuild_hashed_with(ids.len(), |i| (ids[i].0, &pts[i].0), &PoolJobs);
+                .update_hashed_with(ids.len(), |i| (ids[i].0, &pts[i].0), &PoolJobs);
         } else {
             // Several tables (or none): the points gathered in query order first.
             let all: Vec<(u32, &[HashedPoint; 7])> =
                 q.iter().map(|(id, pts)| (id.0, &pts.0)).collect();
             crowd
                 .grid
-                .rebuild_hashed_with(all.len(), |i| all[i], &PoolJobs);
+                .update_hashed_with(all.len(), |i| all[i], &PoolJobs);
         }
     }
     clock.frame += 1;

@@ -66,7 +66,7 @@ impl AsMut<SolveMemo> for CcdMemo {
 
 /// The points a sloth occupies for the others ([`crowd_points`]) with their
 /// grid-cell hashes, written by the Transitions stage in parallel for the
-/// neighbour grid's serial rebuild; and the bits of the body rotation they
+/// neighbour grid's update; and the bits of the body rotation they
 /// were made from (`None`: not made yet).
 #[derive(Component, Clone, Copy, Debug, Default)]
 pub struct CrowdPoints(pub [HashedPoint; 7], pub Option<[u32; 4]>);
@@ -136,6 +136,12 @@ impl std::ops::Deref for Locomotion {
     }
 }
 
+/// How far a crowd point may move before the neighbour grid holds it apart
+/// (see [`CrowdGrid::with_slack`]): 4 to 6 cm gave the same instructions
+/// in the first two seconds of a 1,000-sloth crowd (docs/performance.md,
+/// twentieth round).
+pub const GRID_SLACK_M: f32 = 0.05;
+
 /// Sloths meet sloths: every sloth's body and grips from the previous tick
 /// (rebuilt at the end of each Transitions stage), present in crowd runs.
 #[derive(Resource, Clone, Debug)]
@@ -148,7 +154,7 @@ impl CrowdNeighbours {
     /// An empty structure keeping `clearance_m` between sloths.
     pub fn new(clearance_m: f32) -> Self {
         CrowdNeighbours {
-            grid: CrowdGrid::new(clearance_m),
+            grid: CrowdGrid::with_slack(clearance_m, GRID_SLACK_M),
         }
     }
 
