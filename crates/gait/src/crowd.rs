@@ -32,7 +32,7 @@ type Staged = (u32, u32, u32);
 
 /// The share of a slack grid's points that may lie farther than the slack
 /// from their anchors before [`CrowdGrid::update_hashed_with`] re-buckets
-/// them all (the points past it are held in a grid of their own, rebuilt
+/// them all (the points past it are held in a list sorted by `x`, rebuilt
 /// each update, and each query searches both).
 pub const MOVED_SHARE: f32 = 1.0 / 16.0;
 
@@ -77,8 +77,8 @@ impl Jobs for Serial {
 /// where it was at the last re-bucketing (its anchor), every query tests the
 /// points where they are now, and a query walks the cells within the
 /// clearance plus the slack of its probe. A point farther than the slack from
-/// its anchor (a grip that stepped) is held, where it is now, in a small grid
-/// of its own rebuilt each frame. Every answer is that of a grid rebuilt in
+/// its anchor (a grip that stepped) is held, where it is now, in a list sorted
+/// by `x` rebuilt each frame. Every answer is that of a grid rebuilt in
 /// full from the current points.
 #[derive(Clone, Debug, Default)]
 pub struct CrowdGrid {
@@ -270,7 +270,7 @@ impl CrowdGrid {
     /// the same owners in the same order as the last full rebuild, and at
     /// most a share [`MOVED_SHARE`] of the points farther than the slack
     /// from where they were then, only the current points are copied (and
-    /// those moved points gathered into a small grid of their own);
+    /// those moved points gathered into a list sorted by `x`);
     /// otherwise (no slack, other owners, more moved points) the grid is
     /// rebuilt in full. The queries answer the same either way: that of a
     /// full rebuild from these points. Which points count as moved is
