@@ -197,10 +197,10 @@ impl Sloth {
             });
             // Goal mode, outside transfers: not a stance circled over
             // twice already (see `livelock.rs`).
-            if near
-                .as_deref()
-                .is_some_and(|r| self.near_refused(li, grip.point, pair_grip, r))
-            {
+            if near.as_deref().is_some_and(|r| {
+                self.near_refused(li, grip.point, pair_grip, r)
+                    || self.circle_tabu(li, grip.point, r)
+            }) {
                 continue;
             }
             // Stuck (a search gave up since the last step): any step that
