@@ -5,7 +5,7 @@
 //! comes, and the circle drifts too far for the exact and 1 cm stance
 //! watches. The circle's closing move is tabu (`Sloth::circle_tabu`,
 //! `livelock.rs`): a re-grip within 5 cm of a grip the limb held in its
-//! last three steps, the goal no nearer, another limb waiting ten stances.
+//! last two steps, the goal no nearer, another limb waiting ten stances.
 //!
 //! Each case below missed its goal on main 44ca0c2 (to-trunk 0.08 m 126.3°,
 //! 0.15 m 158.8°, 0.2 m 154.3° of the 0.1° grid; 0.2 m 158.738°, 146.747°,

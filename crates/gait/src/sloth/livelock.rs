@@ -156,16 +156,17 @@ impl Sloth {
 }
 
 /// Circle tabu: a limb's re-grip within this of a grip it held lately is
-/// refused while the circle lasts (metres; the eight circles of issue 24
-/// re-gripped within 1–5 cm, or went back to a grip of 2–3 steps before).
+/// refused while the circle lasts (metres; the circles re-gripped within a
+/// few centimetres; 4 cm and 6 cm each lost cases main passes).
 pub const TABU_RADIUS_M: f32 = 0.05;
 
-/// Circle tabu: the stepping limb's own recorded steps looked back over.
+/// Circle tabu: the stepping limb's own recorded steps looked back over (3 and
+/// 4 lost branch_trunk 0.2 m 98°, docs/scenarios.md).
 const TABU_OWN_STEPS: usize = 2;
 
 /// Circle tabu: applies once another limb has not stepped for this many
 /// recorded stances (in a walk each limb steps every fourth; at 6 or 8 the
-/// tabu cost slow transfers through the steep wedge, docs/scenarios.md).
+/// tabu lost cases of the 0.1° grid that main passes: docs/scenarios.md).
 const TABU_WAITED: usize = 10;
 
 impl Sloth {
