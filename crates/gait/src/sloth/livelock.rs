@@ -178,7 +178,8 @@ impl Sloth {
     /// not stepped for [`TABU_WAITED`] recorded stances. The search passes
     /// it by and takes a candidate farther off, or none: then the limb's
     /// search fails and the waiting limbs search, as after any failed
-    /// search. Inside transfers too (five of the eight circles ran in one).
+    /// search. Inside transfers too (outside them only, to-branch 0.2 m
+    /// 108.44947° and to-trunk 0.2 m 146.747° still failed).
     /// Not a give-up: the record, the failed-search count and the plan are
     /// left as they are.
     pub(super) fn circle_tabu(&self, li: usize, point: Vec3, r: &NearRing) -> bool {
