@@ -19,6 +19,13 @@
 //! refusing the visit would leave circling (branch_trunk at 98°, 125° and
 //! 126°, 0.2 m, were lost that way).
 //!
+//! Circles that drift by centimetres escape that 1 cm test (branch ↔
+//! trunk, issue 24: one or two limbs re-gripping near where they were
+//! while the others wait 20–65 s, each re-grip resetting the failed-search
+//! count). Their closing move is tabu (`Sloth::circle_tabu`, read from the
+//! same record, inside transfers too): a re-grip near the limb's recent
+//! grips while another limb has long waited is passed by.
+//!
 //! The record ([`NearRing`], 840 bytes) is not a part of [`Sloth`]: a
 //! wanderer never reads it, and `Sloth` is copied whole for every stance a
 //! step check looks ahead to. The caller keeps it beside the sloth (the sim:
