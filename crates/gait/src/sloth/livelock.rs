@@ -19,6 +19,13 @@
 //! refusing the visit would leave circling (branch_trunk at 98°, 125° and
 //! 126°, 0.2 m, were lost that way).
 //!
+//! Circles that drift by centimetres escape that 1 cm test (branch ↔
+//! trunk, issue 24: one or two limbs re-gripping near where they were
+//! while the others wait 20–65 s, each re-grip resetting the failed-search
+//! count). Their closing move is tabu (`Sloth::circle_tabu`, read from the
+//! same record, inside transfers too): a re-grip near the limb's recent
+//! grips while another limb has long waited is passed by.
+//!
 //! The record ([`NearRing`], 840 bytes) is not a part of [`Sloth`]: a
 //! wanderer never reads it, and `Sloth` is copied whole for every stance a
 //! step check looks ahead to. The caller keeps it beside the sloth (the sim:
@@ -155,6 +162,59 @@ impl Sloth {
     }
 }
 
+/// Circle tabu: a limb's re-grip within this of a grip it held lately is
+/// refused while the circle lasts (metres; the circles re-gripped within a
+/// few centimetres; 4 cm and 6 cm each lost cases main passes).
+pub const TABU_RADIUS_M: f32 = 0.05;
+
+/// Circle tabu: the stepping limb's own recorded steps looked back over (3 and
+/// 4 lost branch_trunk 0.2 m 98°, docs/scenarios.md).
+const TABU_OWN_STEPS: usize = 2;
+
+/// Circle tabu: applies once another limb has not stepped for this many
+/// recorded stances (in a walk each limb steps every fourth; at 6 or 8 the
+/// tabu lost cases of the 0.1° grid that main passes: docs/scenarios.md).
+const TABU_WAITED: usize = 10;
+
+impl Sloth {
+    /// Circle tabu (issue 24, branch ↔ trunk): whether limb `li`'s re-grip
+    /// at `point` closes a circle: it lies within [`TABU_RADIUS_M`] of the
+    /// limb's grip now or in one of its last [`TABU_OWN_STEPS`] steps in
+    /// record `r` (the goal no nearer: the record starts again where the
+    /// grips come [`NEAR_PROGRESS_M`] nearer it), while another limb has
+    /// not stepped for [`TABU_WAITED`] recorded stances. The search passes
+    /// it by and takes a candidate farther off, or none: then the limb's
+    /// search fails and the waiting limbs search, as after any failed
+    /// search. Inside transfers too (outside them only, to-branch 0.2 m
+    /// 108.44947° and to-trunk 0.2 m 146.747° still failed).
+    /// Not a give-up: the record, the failed-search count and the plan are
+    /// left as they are.
+    pub(super) fn circle_tabu(&self, li: usize, point: Vec3, r: &NearRing) -> bool {
+        if !self.near_recorded() || r.count == 0 {
+            return false;
+        }
+        let kept = (r.count as usize).min(NEAR_KEPT);
+        // The recorded stances, newest first.
+        let at = |j: usize| &r.stances[(r.count as usize - 1 - j) % NEAR_KEPT];
+        // Stances since another limb last stepped (all kept where it has not).
+        let waited = (0..4)
+            .filter(|&k| k != li)
+            .map(|k| (0..kept).find(|&j| at(j).limb == k as u8).unwrap_or(kept))
+            .max()
+            .unwrap_or(0);
+        if waited < TABU_WAITED {
+            return false;
+        }
+        let near = |g: Vec3| g.distance(point) <= TABU_RADIUS_M;
+        near(self.limbs[li].grip.point)
+            || (0..kept)
+                .map(at)
+                .filter(|s| s.limb == li as u8)
+                .take(TABU_OWN_STEPS)
+                .any(|s| near(Vec3::from(s.grips[li])))
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use slothsim_scene::PresetKind;
@@ -210,5 +270,50 @@ mod tests {
         let there2 = there + toward;
         assert_eq!(rp.count, 1);
         assert!(!p.near_refused(2, there2, None, &rp));
+    }
+
+    #[test]
+    fn a_circles_closing_move_is_tabu_while_another_limb_waits() {
+        let (_env, s) = preset_sloth(PresetKind::BranchTrunk);
+        let rh = 3;
+        let home = s.limbs[rh].grip.point;
+        let x = Vec3::new(0.02, 0.0, 0.0);
+        // RH alone steps `n` times, out and back by 2 cm (the others wait).
+        let record = |n: usize| {
+            let mut r = NearRing::default();
+            for k in 0..n {
+                let mut grips = s.limb_map(|l| l.grip.point.to_array());
+                grips[rh] = (home + x * (k % 2) as f32).to_array();
+                r.stances[k % NEAR_KEPT] = NearStance {
+                    limb: rh as u8,
+                    grips,
+                    taken: 1,
+                };
+            }
+            r.count = n as u32;
+            r
+        };
+        let r = record(TABU_WAITED);
+        // Within 5 cm of a grip it held: tabu; 8 cm off: not.
+        assert!(s.circle_tabu(rh, home + Vec3::new(0.0, 0.04, 0.0), &r));
+        assert!(s.circle_tabu(rh, home + x * 3.0, &r));
+        assert!(!s.circle_tabu(rh, home + Vec3::new(0.0, 0.08, 0.0), &r));
+        // The others have not waited long enough: not tabu.
+        let short = record(TABU_WAITED - 1);
+        assert!(!s.circle_tabu(rh, home + x * 3.0, &short));
+        // Every limb stepping in turn (a walk, however slow): not tabu.
+        let mut walk = record(NEAR_KEPT);
+        for (k, st) in walk.stances.iter_mut().enumerate() {
+            st.limb = (k % 4) as u8;
+        }
+        assert!(!s.circle_tabu(rh, home + x * 3.0, &walk));
+        // No record (a back-off cleared it), wander mode, no goal: never.
+        assert!(!s.circle_tabu(rh, home, &NearRing::default()));
+        let mut w = s;
+        w.wander = true;
+        assert!(!w.circle_tabu(rh, home, &r));
+        let mut g = s;
+        g.goal = None;
+        assert!(!g.circle_tabu(rh, home, &r));
     }
 }

@@ -196,11 +196,12 @@ impl Sloth {
                 )
             });
             // Goal mode, outside transfers: not a stance circled over
-            // twice already (see `livelock.rs`).
-            if near
-                .as_deref()
-                .is_some_and(|r| self.near_refused(li, grip.point, pair_grip, r))
-            {
+            // twice already; in transfers too: not a drifting circle's
+            // closing move (see `livelock.rs`).
+            if near.as_deref().is_some_and(|r| {
+                self.near_refused(li, grip.point, pair_grip, r)
+                    || self.circle_tabu(li, grip.point, r)
+            }) {
                 continue;
             }
             // Stuck (a search gave up since the last step): any step that
