@@ -527,10 +527,17 @@ impl Sloth {
         {
             return true;
         }
-        !self.arc_body_penetrates(env, near(), |t| {
-            let st = stance_at(Some(t));
+        let bodies: [(Vec3, Quat); TRANSFER_BODY_CHECKS.len()] = std::array::from_fn(|k| {
+            let st = stance_at(Some(TRANSFER_BODY_CHECKS[k]));
             (st.pos, st.rot)
-        })
+        });
+        // A frame that flips between neighbouring arc points (`arc_flips`):
+        // the body drawn between them is none of those tested. Cheaper than
+        // the sixteen bodies' test (one more stance placed), so first.
+        if arc_flips(stance_at(Some(0.0)).rot, &bodies, &stances) {
+            return false;
+        }
+        !Self::bodies_penetrate_near(env, near(), &bodies)
     }
 
     /// Whether every limb reaches the grip it holds, within its reach band
@@ -982,6 +989,41 @@ impl Sloth {
     }
 }
 
+/// The most a step's checked bodies may turn between neighbouring points of
+/// its arc (radians; see [`arc_flips`]).
+const MAX_ARC_TURN: f32 = 30.0 * std::f32::consts::PI / 180.0;
+
+/// Whether a step's body frame flips between neighbouring points of its arc:
+/// the bodies placed at the step's start (`start`, the rotation at progress
+/// 0), at [`TRANSFER_BODY_CHECKS`]'s points (`arc`) and at the IK checks'
+/// [`SWING_CHECKS`] points (`stances`, the end last, not read), in order of
+/// progress, turn by more than [`MAX_ARC_TURN`] between two neighbours. The
+/// body drawn between them is not any of the bodies tested: `body_average`
+/// slerps the rotation toward a frame that jumps (`body_smoothing_s`) while
+/// the position follows the arc, so for a few frames the body stands at
+/// orientations no point tested (the seed-9 crowd's sloth 1697 at 71.6 s:
+/// its frame turned 166° between 45 % and 50 % of the swing, and the body
+/// swung through the trunk it stepped onto, 115.5 mm deep). Steps the crowd
+/// takes turn at most about 20° between neighbours (transfers' rolls; other
+/// steps under 10°).
+fn arc_flips(
+    start: Quat,
+    arc: &[(Vec3, Quat); TRANSFER_BODY_CHECKS.len()],
+    stances: &[StanceCheck; STANCE_CHECKS],
+) -> bool {
+    const N: usize = 1 + TRANSFER_BODY_CHECKS.len() + SWING_CHECKS.len();
+    let mut rots = [(0.0, start); N];
+    for (k, (&t, &(_, rot))) in TRANSFER_BODY_CHECKS.iter().zip(arc).enumerate() {
+        rots[1 + k] = (t, rot);
+    }
+    for (k, (&t, st)) in SWING_CHECKS.iter().zip(stances).enumerate() {
+        rots[1 + TRANSFER_BODY_CHECKS.len() + k] = (t, st.placed.rot);
+    }
+    rots.sort_by(|a, b| a.0.total_cmp(&b.0));
+    rots.windows(2)
+        .any(|w| w[0].1.angle_between(w[1].1) > MAX_ARC_TURN)
+}
+
 /// Whether each limb's chain root in stance `st` is within its reach band
 /// of the limb's IK target.
 fn in_band(env: &LocoView<'_>, st: &StanceCheck) -> bool {
@@ -1277,6 +1319,21 @@ mod tests {
     #[test]
     fn step_into_the_held_trunk_between_arc_points_is_rejected() {
         let (deepest, taken) = drawn_crowd_step(include_str!("testdata/transfer_held_trunk.json"));
+        assert!(deepest > STANCE_MAX_PENETRATION, "{deepest}");
+        assert!(!taken, "the step is taken");
+    }
+
+    /// Issue 24 (the seed-9 crowd, wanderer 1697 at 71.57 s; fixture
+    /// `testdata/body_flip.json`). Hanging from a trunk (right fore limb), a
+    /// branch (both hind limbs) and another branch (left fore limb), the
+    /// sloth steps its left fore limb onto the trunk; the body placed at the
+    /// step's arc points is clear at each, but its frame turns 166° between
+    /// 45 % and 50 % of the swing, and drawn frame by frame the body swings
+    /// through the trunk between them: the step is rejected ([`arc_flips`];
+    /// main took it, and its body went 115.5 mm into the trunk).
+    #[test]
+    fn step_whose_body_frame_flips_between_arc_points_is_rejected() {
+        let (deepest, taken) = drawn_crowd_step(include_str!("testdata/body_flip.json"));
         assert!(deepest > STANCE_MAX_PENETRATION, "{deepest}");
         assert!(!taken, "the step is taken");
     }
