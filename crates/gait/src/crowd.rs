@@ -722,7 +722,13 @@ mod tests {
     }
 
     /// A grid's state as bits: buckets, current points, the moved list, rebuilds.
-    type GridBits = (Vec<(u32, u32)>, Vec<u32>, Vec<[u32; 3]>, Vec<(u32, [u32; 3])>, u64);
+    type GridBits = (
+        Vec<(u32, u32)>,
+        Vec<u32>,
+        Vec<[u32; 3]>,
+        Vec<(u32, [u32; 3])>,
+        u64,
+    );
 
     fn grid_bits(g: &CrowdGrid) -> GridBits {
         let bits = |p: Vec3| p.to_array().map(f32::to_bits);

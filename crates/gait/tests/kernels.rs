@@ -233,6 +233,39 @@ fn gait_clock_lifts_limbs_in_footfall_order() {
     assert_eq!(order, lsdc, "LSDC lift order");
 }
 
+/// A view's gait timing (made once a view, read every sloth-frame by the
+/// clock) is its config's, bit for bit, for both sequences, every profile, a
+/// set cycle and swing, and another limb phase.
+#[test]
+fn view_gait_timing_is_the_configs() {
+    let mut cfgs = Vec::new();
+    for profile in [Profile::Free, Profile::Steady] {
+        for sequence in [Sequence::Dsdc, Sequence::Lsdc] {
+            let base = LocomotionConfig {
+                sequence,
+                ..LocomotionConfig::profile(profile)
+            };
+            cfgs.push(base.clone());
+            cfgs.push(LocomotionConfig {
+                cycle_s: Some(3.1),
+                swing_s: Some([0.9, 0.7]),
+                limb_phase: 0.37,
+                ..base
+            });
+        }
+    }
+    for cfg in cfgs {
+        let (env, _) = env_for("pole", cfg);
+        for view in [env.view(), env.view_with(None)] {
+            assert_eq!(
+                view.phase_offsets.map(f32::to_bits),
+                env.cfg.phase_offsets().map(f32::to_bits)
+            );
+            assert_eq!(view.cycle_s.to_bits(), env.cfg.cycle_duration().to_bits());
+        }
+    }
+}
+
 /// Branch → trunk (SPEC `transfer_to_trunk`) on the branch_trunk preset: a
 /// transfer starts when a limb's search reaches the trunk and ends once all
 /// four limbs hold it, the body then facing the trunk head up.
