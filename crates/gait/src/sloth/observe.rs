@@ -57,7 +57,7 @@ impl Sloth {
                 Some((k, gap, violation)) if k == key => (gap, violation),
                 _ => {
                     let s = scene.support(l.grip.support);
-                    let gap = crate::path::surface_gap(env.query, s, l.effector);
+                    let gap = env.adjacency.surface_gap(env.query, s, l.effector);
                     let violation = env.rig.chains[li].limit_violation(&l.pose);
                     memo.limbs[li] = Some((key, gap, violation));
                     (gap, violation)
