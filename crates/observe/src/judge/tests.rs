@@ -378,7 +378,7 @@ fn with_value(o: &SlothObservation, i: usize, x: f32) -> SlothObservation {
         }
         k = k.wrapping_sub(a.len());
     };
-    let mut v3 = |v: &mut glam::Vec3, put: &mut dyn FnMut(&mut [f32])| {
+    let v3 = |v: &mut glam::Vec3, put: &mut dyn FnMut(&mut [f32])| {
         let mut a = v.to_array();
         put(&mut a);
         *v = glam::Vec3::from_array(a);
