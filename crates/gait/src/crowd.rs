@@ -108,6 +108,11 @@ pub struct CrowdGrid {
     /// not finite at their anchors), with their owners, by `x` (slack 0:
     /// none).
     moved: Vec<(u32, Vec3)>,
+    /// Per group: whether any of its points was farther than the slack from
+    /// its anchor (or not finite) at the last update or full rebuild (after
+    /// one, the anchors are the points: only a non-finite point is far). A group whose points keep their bits keeps
+    /// this too ([`CrowdGrid::update_hashed_kept_with`]).
+    far: Vec<bool>,
     /// Full rebuilds so far.
     rebuilds: u64,
     /// Scratch: the points grouped by partition, in sloth order within each.
@@ -283,8 +288,38 @@ impl CrowdGrid {
     ) where
         G: Fn(usize) -> (u32, &'a [HashedPoint; K]) + Sync,
     {
+        self.update_hashed_kept_with(
+            sloths,
+            |i| {
+                let (o, p) = group(i);
+                (o, p, false)
+            },
+            jobs,
+        );
+    }
+
+    /// [`CrowdGrid::update_hashed_with`], told which groups kept their
+    /// points: `group(i)` also says whether the `i`-th group's points hold
+    /// exactly the bits they held at this grid's last update or rebuild (a
+    /// sloth at rest, about half of a crowd's sloth-frames). Such a group
+    /// with no point past the slack then was none now either: its points are
+    /// neither copied nor tested again (nor read: only its owner is). The
+    /// grid is the one [`CrowdGrid::update_hashed_with`] makes, provided the
+    /// flags are true only where the bits are the same.
+    pub fn update_hashed_kept_with<'a, const K: usize, G>(
+        &mut self,
+        sloths: usize,
+        group: G,
+        jobs: &impl Jobs,
+    ) where
+        G: Fn(usize) -> (u32, &'a [HashedPoint; K], bool) + Sync,
+    {
+        let plain = |i| {
+            let (o, p, _) = group(i);
+            (o, p)
+        };
         if self.slack <= 0.0 || self.per_group != K || self.owners.len() != sloths {
-            return self.rebuild_hashed_with(sloths, group, jobs);
+            return self.rebuild_hashed_with(sloths, plain, jobs);
         }
         let group = &group;
         let blocks = sloths.div_ceil(SLOTHS_PER_JOB);
@@ -299,25 +334,38 @@ impl CrowdGrid {
             .chunks_mut(SLOTHS_PER_JOB * K)
             .zip(self.anchors.chunks(SLOTHS_PER_JOB * K))
             .zip(self.owners.chunks(SLOTHS_PER_JOB))
+            .zip(self.far.chunks_mut(SLOTHS_PER_JOB))
             .zip(self.moved_idx.iter_mut())
             .zip(same.iter_mut())
             .enumerate()
-            .map(|(b, ((((pts, anchors), owners), moved), same))| {
+            .map(|(b, (((((pts, anchors), owners), fars), moved), same))| {
                 Box::new(move || {
                     moved.clear();
                     let first = b * SLOTHS_PER_JOB;
                     let groups = pts.chunks_exact_mut(K).zip(anchors.chunks_exact(K));
-                    for (j, ((pts, anchors), &owner)) in groups.zip(owners).enumerate() {
-                        let (o, hps) = group(first + j);
+                    let groups = groups.zip(owners).zip(fars.iter_mut());
+                    for (j, (((pts, anchors), &owner), was_far)) in groups.enumerate() {
+                        let (o, hps, kept) = group(first + j);
                         if o != owner {
                             *same = false;
                             return;
+                        }
+                        // The same bits as last time, none past the slack
+                        // then: none now (`pts` holds them already).
+                        if kept && !*was_far {
+                            debug_assert!(
+                                (0..K).all(|k| pts[k].to_array().map(f32::to_bits)
+                                    == hps[k].point.to_array().map(f32::to_bits)),
+                                "a group flagged kept whose points changed"
+                            );
+                            continue;
                         }
                         let mut far = false;
                         for k in 0..K {
                             pts[k] = hps[k].point;
                             far |= !near(hps[k].point, anchors[k]);
                         }
+                        *was_far = far;
                         if far {
                             for k in 0..K {
                                 if !near(pts[k], anchors[k]) {
@@ -333,7 +381,7 @@ impl CrowdGrid {
         let moved: usize = self.moved_idx.iter().map(Vec::len).sum();
         let limit = (self.points.len() as f32 * MOVED_SHARE) as usize;
         if same.contains(&false) || moved > limit {
-            return self.rebuild_hashed_with(sloths, group, jobs);
+            return self.rebuild_hashed_with(sloths, plain, jobs);
         }
         // By `x` (its bits in `f32::total_cmp`'s order), then by index: one
         // order for any runner.
@@ -383,6 +431,7 @@ impl CrowdGrid {
         self.per_group = K;
         self.owners.resize(sloths, 0);
         self.points.resize(sloths * K, Vec3::ZERO);
+        self.far.resize(sloths, false);
         self.moved.clear();
         // 1. Points per partition, per block of sloths; the points copied.
         self.counts.clear();
@@ -392,14 +441,18 @@ impl CrowdGrid {
                 .iter_mut()
                 .zip(self.points.chunks_mut(SLOTHS_PER_JOB * K))
                 .zip(self.owners.chunks_mut(SLOTHS_PER_JOB))
+                .zip(self.far.chunks_mut(SLOTHS_PER_JOB))
                 .enumerate()
-                .map(|(b, ((counts, points), owners))| {
+                .map(|(b, (((counts, points), owners), fars))| {
                     Box::new(move || {
                         let first = b * SLOTHS_PER_JOB;
                         for i in block(b) {
                             let (owner, pts) = group(i);
                             owners[i - first] = owner;
                             let all = all_finite(pts);
+                            // At its anchor (itself) a point is within the
+                            // slack unless it is not finite.
+                            fars[i - first] = !all;
                             for (k, hp) in pts.iter().enumerate() {
                                 points[(i - first) * K + k] = hp.point;
                                 if all || hp.point.is_finite() {
@@ -414,6 +467,7 @@ impl CrowdGrid {
         if self.slack > 0.0 {
             self.anchors.clone_from(&self.points);
         }
+
         let mut part_len = [0usize; PARTS];
         for counts in &self.counts {
             for (l, &c) in part_len.iter_mut().zip(counts) {
@@ -667,7 +721,102 @@ mod tests {
         }
     }
 
+    /// A grid's state as bits: buckets, current points, the moved list, rebuilds.
+    type GridBits = (
+        Vec<(u32, u32)>,
+        Vec<u32>,
+        Vec<[u32; 3]>,
+        Vec<(u32, [u32; 3])>,
+        u64,
+    );
+
+    fn grid_bits(g: &CrowdGrid) -> GridBits {
+        let bits = |p: Vec3| p.to_array().map(f32::to_bits);
+        (
+            g.entries.clone(),
+            g.starts.clone(),
+            g.points.iter().map(|&p| bits(p)).collect(),
+            g.moved.iter().map(|&(o, p)| (o, bits(p))).collect(),
+            g.rebuilds,
+        )
+    }
+
     proptest! {
+        /// [`CrowdGrid::update_hashed_kept_with`], told truly which groups
+        /// kept their points' bits since the last update (about half of
+        /// them each frame, the others drifting past the slack, stepping or
+        /// turning non-finite), makes exactly the grid that
+        /// [`CrowdGrid::update_hashed_with`] makes from the same points,
+        /// frame after frame, serially and on threads (also when owners
+        /// change or a group is dropped).
+        #[test]
+        fn kept_groups_update_as_the_full_update(
+            start in prop::collection::vec(
+                prop::array::uniform7((-1.0f32..1.0, -1.0f32..1.0, -1.0f32..1.0)),
+                3..40,
+            ),
+            frames in prop::collection::vec(
+                (
+                    prop::collection::vec(
+                        (
+                            0u8..2,
+                            prop::array::uniform7((0u8..200, -0.02f32..0.02, -0.02f32..0.02, -0.02f32..0.02)),
+                        ),
+                        40,
+                    ),
+                    0u8..30,
+                ),
+                1..16,
+            ),
+        ) {
+            let mut full = CrowdGrid::with_slack(0.3, 0.05);
+            let mut kept_serial = full.clone();
+            let mut kept_threaded = full.clone();
+            let mut owners: Vec<u32> = (0..start.len() as u32).collect();
+            let mut pts: Vec<[Vec3; 7]> = start
+                .iter()
+                .map(|g| g.map(|(x, y, z)| Vec3::new(x, y, z)))
+                .collect();
+            let mut last: Option<Vec<[HashedPoint; 7]>> = None;
+            for (f, (moves, owner_change)) in frames.iter().enumerate() {
+                if f > 0 {
+                    for (g, (rest, m)) in pts.iter_mut().zip(moves) {
+                        if *rest == 1 {
+                            continue;
+                        }
+                        for (p, &(kind, x, y, z)) in g.iter_mut().zip(m) {
+                            *p = moved(*p, kind, Vec3::new(x, y, z));
+                        }
+                    }
+                    match owner_change {
+                        0 if pts.len() > 1 => {
+                            pts.pop();
+                            owners.pop();
+                        }
+                        1 => owners[0] += 100,
+                        _ => {}
+                    }
+                }
+                let hashed: Vec<[HashedPoint; 7]> =
+                    pts.iter().map(|g| g.map(|p| full.hashed(p))).collect();
+                let bits = |g: &[HashedPoint; 7]| g.map(|h| h.point.to_array().map(f32::to_bits));
+                let kept: Vec<bool> = (0..hashed.len())
+                    .map(|i| {
+                        last.as_ref()
+                            .and_then(|l| l.get(i))
+                            .is_some_and(|l| bits(l) == bits(&hashed[i]))
+                    })
+                    .collect();
+                full.update_hashed_with(hashed.len(), |i| (owners[i], &hashed[i]), &Serial);
+                let get = |i: usize| (owners[i], &hashed[i], kept[i]);
+                kept_serial.update_hashed_kept_with(hashed.len(), get, &Serial);
+                kept_threaded.update_hashed_kept_with(hashed.len(), get, &Threads);
+                prop_assert_eq!(grid_bits(&kept_serial), grid_bits(&full), "frame {}", f);
+                prop_assert_eq!(grid_bits(&kept_threaded), grid_bits(&full), "frame {}", f);
+                last = Some(hashed);
+            }
+        }
+
         /// A grid kept by [`CrowdGrid::update_hashed_with`] answers every
         /// probe as a grid rebuilt in full from the same points and as the
         /// brute force, frame after frame, while its points drift past the

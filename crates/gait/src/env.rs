@@ -89,6 +89,8 @@ impl LocoEnv {
             adjacency: &self.adjacency,
             ccd: &self.ccd,
             crowd: None,
+            phase_offsets: self.cfg.phase_offsets(),
+            cycle_s: self.cfg.cycle_duration(),
         }
     }
 }
@@ -111,6 +113,11 @@ pub struct LocoView<'a> {
     pub ccd: &'a CcdParams,
     /// Other sloths' bodies and grips (previous tick), when in a crowd.
     pub crowd: Option<&'a CrowdGrid>,
+    /// `cfg.phase_offsets()`, made once a view (the gait clock reads them
+    /// every sloth-frame; two `rem_euclid` calls each time).
+    pub phase_offsets: [f32; 4],
+    /// `cfg.cycle_duration()`, made once a view.
+    pub cycle_s: f32,
 }
 
 impl<'a> LocoView<'a> {

@@ -24,6 +24,6 @@ pub use load::{LimbLoads, LoadTrack, load_params};
 pub use path::{Adjacency, AxisPoint, axis_at, project, surface_gap};
 pub use rigdata::RigData;
 pub use sloth::{
-    BodyMemo, Fallback, Grip, LimbPhase, LimbState, NearRing, Sloth, SolveMemo, SpawnHint, Status,
-    StuckCause, TraceBatch,
+    BodyMemo, Fallback, Grip, LimbPhase, LimbState, NearRing, ObserveMemo, Sloth, SolveMemo,
+    SpawnHint, Status, StuckCause, TraceBatch,
 };

@@ -6,8 +6,8 @@
 
 use glam::Vec3;
 use slothsim_gait::{
-    LimbPhase, LocoEnv, LocoView, LocomotionConfig, NearRing, Profile, Sequence, Sloth, SpawnHint,
-    Status, TraceBatch, project,
+    LimbPhase, LocoEnv, LocoView, LocomotionConfig, NearRing, ObserveMemo, Profile, Sequence,
+    Sloth, SpawnHint, Status, TraceBatch, project,
 };
 use slothsim_rig::{Limb, Rig};
 use slothsim_scene::{Preset, SupportKind, TraceScene};
@@ -231,6 +231,80 @@ fn gait_clock_lifts_limbs_in_footfall_order() {
     let (order, _, _) = lift_order(Sequence::Lsdc);
     let lsdc = [Limb::RH, Limb::RF, Limb::LH, Limb::LF].map(Limb::index);
     assert_eq!(order, lsdc, "LSDC lift order");
+}
+
+/// A view's gait timing (made once a view, read every sloth-frame by the
+/// clock) is its config's, bit for bit, for both sequences, every profile, a
+/// set cycle and swing, and another limb phase.
+#[test]
+fn view_gait_timing_is_the_configs() {
+    let mut cfgs = Vec::new();
+    for profile in [Profile::Free, Profile::Steady] {
+        for sequence in [Sequence::Dsdc, Sequence::Lsdc] {
+            let base = LocomotionConfig {
+                sequence,
+                ..LocomotionConfig::profile(profile)
+            };
+            cfgs.push(base.clone());
+            cfgs.push(LocomotionConfig {
+                cycle_s: Some(3.1),
+                swing_s: Some([0.9, 0.7]),
+                limb_phase: 0.37,
+                ..base
+            });
+        }
+    }
+    for cfg in cfgs {
+        let (env, _) = env_for("pole", cfg);
+        for view in [env.view(), env.view_with(None)] {
+            assert_eq!(
+                view.phase_offsets.map(f32::to_bits),
+                env.cfg.phase_offsets().map(f32::to_bits)
+            );
+            assert_eq!(view.cycle_s.to_bits(), env.cfg.cycle_duration().to_bits());
+        }
+    }
+}
+
+/// The observation through a memo kept across frames is the plain
+/// observation, bit for bit, frame after frame, while sloths walk, rest
+/// between steps (the memo's inputs unchanged: counted, so the test covers
+/// its hits) and change supports (branch → trunk).
+#[test]
+fn observe_memo_is_the_plain_observation() {
+    for name in ["pole", "branch_trunk"] {
+        let (env, preset) = env_for(name, LocomotionConfig::profile(Profile::Free));
+        let view = env.view();
+        let mut sloth = spawn_at_start(&view, &preset);
+        let (mut near, mut batch, mut memo) = (
+            NearRing::default(),
+            TraceBatch::default(),
+            ObserveMemo::default(),
+        );
+        let key = |s: &Sloth| {
+            let mut k: Vec<u32> = s.body_pos.to_array().map(f32::to_bits).to_vec();
+            for l in &s.limbs {
+                k.extend(l.effector.to_array().map(f32::to_bits));
+                k.extend(l.pose.0.iter().flat_map(|q| q.to_array().map(f32::to_bits)));
+            }
+            k
+        };
+        let (mut last, mut kept) = (Vec::new(), 0);
+        for frame in 0..900 {
+            tick(&mut sloth, &mut near, &view, &mut batch);
+            let k = key(&sloth);
+            kept += usize::from(k == last);
+            last = k;
+            let memo_seen = sloth.observe_memo(&view, &mut memo);
+            let plain = sloth.observe(&view);
+            assert_eq!(
+                format!("{memo_seen:?}"),
+                format!("{plain:?}"),
+                "{name}, frame {frame}"
+            );
+        }
+        assert!(kept > 0, "{name}: no frame kept the memo's inputs");
+    }
 }
 
 /// Branch → trunk (SPEC `transfer_to_trunk`) on the branch_trunk preset: a

@@ -25,11 +25,11 @@
 
 use std::fmt::Write as _;
 
-use glam::{Quat, Vec3};
+use glam::Vec3;
 use serde::{Deserialize, Serialize};
 use slothsim_rig::Limb;
 
-use slothsim_gait::observe::{LimbObservation, SlothObservation};
+use slothsim_gait::observe::SlothObservation;
 
 /// A joint-limit violation counts when `limit_violation` exceeds this many
 /// radians (about 0.006°): above the float noise of a clamped CCD pose, far
@@ -186,10 +186,40 @@ impl Tolerances {
 
 /// True when every float of the observation is finite and every
 /// `limb_length` is > 0. (`has_nan` is not looked at.)
+///
+/// Asked twice a sloth-frame (the judge and the gait statistics), so without
+/// a branch a value: `x * 0.0` is ±0 for a finite `x` and NaN for an
+/// infinite or NaN one, and a sum of zeros is zero while one NaN makes it NaN
+/// (the answer of testing each value, `observation_is_finite_by_value`).
 pub fn observation_is_finite(obs: &SlothObservation) -> bool {
+    let mut zero = 0.0f32;
+    let mut add = |xs: &[f32]| {
+        for &x in xs {
+            zero += x * 0.0;
+        }
+    };
+    add(&[obs.time_s, obs.penetration_m, obs.goal_distance_m]);
+    add(&obs.body_pos.to_array());
+    add(&obs.body_rot.to_array());
+    add(&obs.head_ws.to_array());
+    add(&obs.hips_ws.to_array());
+    let mut lengths_ok = true;
+    for l in &obs.limbs {
+        add(&l.grip_ws.to_array());
+        add(&l.effector_ws.to_array());
+        add(&l.root_ws.to_array());
+        add(&[l.limb_length, l.surface_gap, l.limit_violation]);
+        lengths_ok &= l.limb_length > 0.0;
+    }
+    zero == 0.0 && lengths_ok
+}
+
+/// [`observation_is_finite`] value by value (the reference for its tests).
+#[cfg(test)]
+pub(crate) fn observation_is_finite_by_value(obs: &SlothObservation) -> bool {
     let v = |v: Vec3| v.is_finite();
-    let q = |q: Quat| q.is_finite();
-    let limb_ok = |l: &LimbObservation| {
+    let q = |q: glam::Quat| q.is_finite();
+    let limb_ok = |l: &slothsim_gait::observe::LimbObservation| {
         v(l.grip_ws)
             && v(l.effector_ws)
             && v(l.root_ws)

@@ -335,17 +335,21 @@ fn grid_rebuild(
             Ok(it) => it.collect(),
             Err(_) => Vec::new(),
         };
+        // A sloth whose points kept their bits this tick (`CrowdPoints::update`,
+        // run every tick the grid is) holds those of the grid's last update.
         if let [(ids, pts)] = tables[..] {
-            crowd
-                .grid
-                .update_hashed_with(ids.len(), |i| (ids[i].0, &pts[i].0), &PoolJobs);
+            crowd.grid.update_hashed_kept_with(
+                ids.len(),
+                |i| (ids[i].0, &pts[i].0, pts[i].2),
+                &PoolJobs,
+            );
         } else {
             // Several tables (or none): the points gathered in query order first.
-            let all: Vec<(u32, &[HashedPoint; 7])> =
-                q.iter().map(|(id, pts)| (id.0, &pts.0)).collect();
+            let all: Vec<(u32, &[HashedPoint; 7], bool)> =
+                q.iter().map(|(id, pts)| (id.0, &pts.0, pts.2)).collect();
             crowd
                 .grid
-                .update_hashed_with(all.len(), |i| all[i], &PoolJobs);
+                .update_hashed_kept_with(all.len(), |i| all[i], &PoolJobs);
         }
     }
     clock.frame += 1;

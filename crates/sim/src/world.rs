@@ -66,10 +66,13 @@ impl AsMut<SolveMemo> for CcdMemo {
 
 /// The points a sloth occupies for the others ([`crowd_points`]) with their
 /// grid-cell hashes, written by the Transitions stage in parallel for the
-/// neighbour grid's update; and the bits of the body rotation they
-/// were made from (`None`: not made yet).
+/// neighbour grid's update; the bits of the body rotation they
+/// were made from (`None`: not made yet); and whether the last
+/// [`CrowdPoints::update`] kept them (the same bits as the update before:
+/// the neighbour grid's update then neither copies nor tests them again,
+/// `CrowdGrid::update_hashed_kept_with`).
 #[derive(Component, Clone, Copy, Debug, Default)]
-pub struct CrowdPoints(pub [HashedPoint; 7], pub Option<[u32; 4]>);
+pub struct CrowdPoints(pub [HashedPoint; 7], pub Option<[u32; 4]>, pub bool);
 
 impl CrowdPoints {
     /// Makes `s`'s points hashed for `g`, unless these are they already: the
@@ -95,10 +98,12 @@ impl CrowdPoints {
                     .all(|(a, b)| a.hash == b.hash && bits(a.point) == bits(b.point)),
                 "kept crowd points differ from the sloth's"
             );
+            self.2 = true;
             return;
         }
         self.0 = crowd_points(rig, s).map(|p| g.hashed(p));
         self.1 = Some(rot);
+        self.2 = false;
     }
 }
 

@@ -575,8 +575,8 @@ impl Sloth {
             return true;
         }
         let lands_in = (1.0 - self.limbs[swing.index()].swing_t) * env.cfg.swing_duration(swing);
-        let off = env.cfg.phase_offsets()[other_limb.index()];
-        let due_in = (off - self.clock).rem_euclid(1.0) * env.cfg.cycle_duration();
+        let off = env.phase_offsets[other_limb.index()];
+        let due_in = (off - self.clock).rem_euclid(1.0) * env.cycle_s;
         due_in <= lands_in
     }
 

@@ -56,9 +56,9 @@ impl Sloth {
         });
         let prev = self.clock;
         if !waiting {
-            self.clock = (self.clock + dt / env.cfg.cycle_duration()).fract();
+            self.clock = (self.clock + dt / env.cycle_s).fract();
         }
-        let offsets = env.cfg.phase_offsets();
+        let offsets = env.phase_offsets;
         for (li, &off) in offsets.iter().enumerate() {
             let crossed = if self.clock >= prev {
                 off > prev && off <= self.clock

@@ -44,6 +44,7 @@ mod turn;
 
 pub use body::BodyMemo;
 pub use livelock::NearRing;
+pub use observe::ObserveMemo;
 pub use replan::Backoff;
 pub use retrace::{Trail, TrailStep};
 pub use solve::SolveMemo;

@@ -73,7 +73,7 @@ impl Sloth {
             Some(b) => self.face(b.dir),
             None => {
                 self.backoff = Some(Backoff {
-                    until_s: self.time + BACKOFF_CYCLES * env.cfg.cycle_duration(),
+                    until_s: self.time + BACKOFF_CYCLES * env.cycle_s,
                     dir: self.dir,
                 });
                 self.face(-self.dir);

@@ -624,8 +624,8 @@ impl Sloth {
         if self.transfer.is_some() {
             return None;
         }
-        let offsets = env.cfg.phase_offsets();
-        let cycle = env.cfg.cycle_duration();
+        let offsets = env.phase_offsets;
+        let cycle = env.cycle_s;
         let (lj, wait) = (0..4)
             .filter(|&j| j != li)
             .map(|j| (j, (offsets[j] - self.clock).rem_euclid(1.0) * cycle))
@@ -883,7 +883,7 @@ impl Sloth {
 /// The limbs in footfall order from limb `li` (`li` first, then the limbs
 /// lifting after it within the gait cycle).
 pub(super) fn footfall_order_from(env: &LocoView<'_>, li: usize) -> [usize; 4] {
-    let offsets = env.cfg.phase_offsets();
+    let offsets = env.phase_offsets;
     let mut order = [0usize, 1, 2, 3];
     order.sort_by(|&a, &b| {
         let da = (offsets[a] - offsets[li]).rem_euclid(1.0);

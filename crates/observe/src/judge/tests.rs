@@ -365,3 +365,103 @@ fn crowd_merge_keeps_the_worst() {
     assert!(crowd.min_goal_distance_m.unwrap() > 90.0);
     assert!(JudgeReport::aggregate([]).is_none());
 }
+
+/// `o` with its `i`-th float (in [`observation_is_finite`]'s order: time,
+/// penetration, goal distance, body, rotation, head, hips, then per limb its
+/// grip, effector, root, length, gap and violation; 64 in all) set to `x`.
+fn with_value(o: &SlothObservation, i: usize, x: f32) -> SlothObservation {
+    let mut o = *o;
+    let mut k = i;
+    let mut put = |a: &mut [f32]| {
+        if k < a.len() {
+            a[k] = x;
+        }
+        k = k.wrapping_sub(a.len());
+    };
+    let v3 = |v: &mut glam::Vec3, put: &mut dyn FnMut(&mut [f32])| {
+        let mut a = v.to_array();
+        put(&mut a);
+        *v = glam::Vec3::from_array(a);
+    };
+    let mut t = [o.time_s, o.penetration_m, o.goal_distance_m];
+    put(&mut t);
+    [o.time_s, o.penetration_m, o.goal_distance_m] = t;
+    v3(&mut o.body_pos, &mut put);
+    let mut r = o.body_rot.to_array();
+    put(&mut r);
+    o.body_rot = glam::Quat::from_array(r);
+    v3(&mut o.head_ws, &mut put);
+    v3(&mut o.hips_ws, &mut put);
+    for l in &mut o.limbs {
+        v3(&mut l.grip_ws, &mut put);
+        v3(&mut l.effector_ws, &mut put);
+        v3(&mut l.root_ws, &mut put);
+        let mut a = [l.limb_length, l.surface_gap, l.limit_violation];
+        put(&mut a);
+        [l.limb_length, l.surface_gap, l.limit_violation] = a;
+    }
+    o
+}
+
+/// The branch-free [`observation_is_finite`] answers as the value-by-value
+/// test: the synthetic walk's observations as they are, then with one value
+/// (any of the 64 floats) made +∞, −∞, NaN, the largest finite or a
+/// subnormal, or a limb length made 0, −0 or negative, and with two values at
+/// once (an infinity and its negation, whose sum alone would be NaN too).
+#[test]
+fn observation_is_finite_matches_the_value_by_value_test() {
+    let walk = Walk::dsdc();
+    let values = [
+        f32::INFINITY,
+        f32::NEG_INFINITY,
+        f32::NAN,
+        f32::MAX,
+        -f32::MAX,
+        1e-40,
+        0.0,
+        -0.0,
+        -1.0,
+    ];
+    let (mut checked, mut finite, mut not) = (0, 0, 0);
+    for f in (1..=walk.frames).step_by(97) {
+        let base = walk.observation(f);
+        assert_eq!(
+            observation_is_finite(&base),
+            observation_is_finite_by_value(&base)
+        );
+        // Index 63 is the last float (the fourth limb's violation), 64 none.
+        assert_eq!(with_value(&base, 64, f32::NAN), base);
+        assert_ne!(
+            observation_is_finite_by_value(&with_value(&base, 63, f32::NAN)),
+            observation_is_finite_by_value(&base)
+        );
+        for i in 0..64 {
+            for &x in &values {
+                let o = with_value(&base, i, x);
+                let got = observation_is_finite(&o);
+                assert_eq!(
+                    got,
+                    observation_is_finite_by_value(&o),
+                    "frame {f} value {i} = {x}"
+                );
+                finite += usize::from(got);
+                not += usize::from(!got);
+                checked += 1;
+                let j = (i * 7 + 3) % 64;
+                if j != i {
+                    let o = with_value(&o, j, -x);
+                    assert_eq!(
+                        observation_is_finite(&o),
+                        observation_is_finite_by_value(&o),
+                        "frame {f} values {i}, {j} = {x}"
+                    );
+                    checked += 1;
+                }
+            }
+        }
+    }
+    assert!(
+        checked > 1000 && finite > 0 && not > 0,
+        "{checked} {finite} {not}"
+    );
+}

@@ -248,7 +248,9 @@ impl Crowd {
             q.par_iter_mut(world)
                 .batching_strategy(crate::schedule::BATCHING)
                 .for_each(|(s, g, mut o)| {
-                    o.observe(&s.0.observe(&w));
+                    let o = &mut *o;
+                    let seen = s.0.observe_memo(&w, &mut o.memo);
+                    o.observe(&seen);
                     o.observe_loads(s.0.time, &g.0, release);
                 });
         });

@@ -6,7 +6,7 @@ use bevy_ecs::prelude::*;
 use serde::Serialize;
 use std::collections::BTreeMap;
 
-use slothsim_gait::{LimbLoads, SlothObservation, StuckCause};
+use slothsim_gait::{LimbLoads, ObserveMemo, SlothObservation, StuckCause};
 use slothsim_observe::{GaitReport, GaitStats, Judge, JudgeReport, Tolerances};
 use slothsim_scene::{SupportId, SupportKind};
 
@@ -57,6 +57,9 @@ pub struct Observer {
     loads: GripLoadStats,
     /// Every frame's grip loads with its time, when the history is kept.
     load_history: Option<Vec<(f32, LimbLoads)>>,
+    /// The sloth's observation's dearest measures as last computed
+    /// ([`Sloth::observe_memo`](slothsim_gait::Sloth::observe_memo)).
+    pub(super) memo: ObserveMemo,
 }
 
 impl Observer {
@@ -76,6 +79,7 @@ impl Observer {
             on_trunk: None,
             loads: GripLoadStats::new(),
             load_history: keep_history.then(Vec::new),
+            memo: ObserveMemo::default(),
         }
     }
 
