@@ -1494,6 +1494,7 @@ mod tests {
                 }
             }
         }
+        println!("{compared} frames compared");
         assert!(compared > 1000, "{compared}");
     }
 
