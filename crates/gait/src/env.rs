@@ -28,6 +28,10 @@ use crate::sloth::Sloth;
 /// 1.5 mm and CcdSolve moves the body when a planted claw is farther off.
 pub const IK_TOLERANCE_M: f32 = 1e-3;
 
+/// The fixed time step a [`LocoEnv`] assumes until told the run's
+/// ([`LocoEnv::with_frame_dt`]): 60 ticks a second.
+pub const DEFAULT_FRAME_DT: f32 = 1.0 / 60.0;
+
 /// Everything read-only the locomotion kernels share: config, rig data,
 /// forest BVH, adjacency, IK parameters.
 pub struct LocoEnv {
@@ -43,6 +47,10 @@ pub struct LocoEnv {
     pub adjacency: Adjacency,
     /// IK parameters.
     pub ccd: CcdParams,
+    /// The run's fixed time step (s): the step checks draw a trunk walk's
+    /// body frame by frame as `body_average` will (see
+    /// `Sloth::trunk_walk_frames_penetrate`).
+    pub frame_dt: f32,
 }
 
 impl LocoEnv {
@@ -68,7 +76,18 @@ impl LocoEnv {
             traces,
             adjacency,
             ccd,
+            frame_dt: DEFAULT_FRAME_DT,
         })
+    }
+
+    /// The same environment for a run ticking every `dt` seconds (finite,
+    /// positive; [`DEFAULT_FRAME_DT`] until set).
+    pub fn with_frame_dt(self, dt: f32) -> Self {
+        assert!(dt.is_finite() && dt > 0.0, "frame dt {dt} must be positive");
+        LocoEnv {
+            frame_dt: dt,
+            ..self
+        }
     }
 
     /// The kernels' view, with other sloths (`crowd`) when in a crowd.
@@ -91,6 +110,7 @@ impl LocoEnv {
             crowd: None,
             phase_offsets: self.cfg.phase_offsets(),
             cycle_s: self.cfg.cycle_duration(),
+            frame_dt: self.frame_dt,
         }
     }
 }
@@ -118,6 +138,8 @@ pub struct LocoView<'a> {
     pub phase_offsets: [f32; 4],
     /// `cfg.cycle_duration()`, made once a view.
     pub cycle_s: f32,
+    /// The run's fixed time step (s).
+    pub frame_dt: f32,
 }
 
 impl<'a> LocoView<'a> {

@@ -184,10 +184,11 @@ pub struct SimClock {
     pub frame: u64,
 }
 
-/// A world holding the shared resources, ready for sloths.
+/// A world holding the shared resources, ready for sloths, ticking every
+/// `dt` seconds (the step checks draw a trunk walk's body at that rate).
 pub fn new_world(loco: Locomotion, dt: f32) -> World {
     let mut world = World::new();
-    world.insert_resource(loco);
+    world.insert_resource(Locomotion(loco.0.with_frame_dt(dt)));
     world.insert_resource(SimClock { dt, frame: 0 });
     world.insert_resource(crate::StageTimings::default());
     world

@@ -225,6 +225,26 @@ pub(super) struct BodyOffset {
     pub(super) hind_back_m: f32,
 }
 
+/// The body's rotation one frame (`dt`) after `from`, turned toward formula
+/// 6's `to` (outside transfers and turns): a slow turn (at most
+/// [`BODY_FREE_TURN_RATE`]) is followed exactly, a jump is smoothed over
+/// `body_smoothing_s`.
+pub(super) fn smoothed_rotation(env: &LocoView<'_>, from: Quat, to: Quat, dt: f32) -> Quat {
+    let k = if env.cfg.body_smoothing_s > 0.0 {
+        let smooth = 1.0 - (-dt / env.cfg.body_smoothing_s).exp();
+        let angle = from.angle_between(to);
+        let free = BODY_FREE_TURN_RATE * dt;
+        if angle <= free {
+            1.0
+        } else {
+            smooth.max(free / angle)
+        }
+    } else {
+        1.0
+    };
+    from.slerp(to, k).normalize()
+}
+
 /// Which side a body walking a trunk faces it from (see [`Sloth::body_frame`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(super) enum BodySide {
@@ -399,20 +419,11 @@ impl Sloth {
         let to_aim = aim - self.body_shift;
         self.body_shift += to_aim * (step / to_aim.length().max(step));
         let pos = pos + self.body_shift;
-        let k = if env.cfg.body_smoothing_s > 0.0 && self.transfer.is_none() && self.turn.is_none()
-        {
-            let smooth = 1.0 - (-dt / env.cfg.body_smoothing_s).exp();
-            let angle = self.body_rot.angle_between(rot);
-            let free = BODY_FREE_TURN_RATE * dt;
-            if angle <= free {
-                1.0
-            } else {
-                smooth.max(free / angle)
-            }
+        self.body_rot = if self.transfer.is_none() && self.turn.is_none() {
+            smoothed_rotation(env, self.body_rot, rot, dt)
         } else {
-            1.0
+            self.body_rot.slerp(rot, 1.0).normalize()
         };
-        self.body_rot = self.body_rot.slerp(rot, k).normalize();
         self.body_pos = pos;
     }
 

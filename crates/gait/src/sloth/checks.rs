@@ -11,10 +11,10 @@ use slothsim_rig::{CcdParams, CcdResult, ChainPose, Limb, RootTransform};
 use slothsim_scene::{SupportId, SupportKind};
 
 use super::body::{
-    BodyOffset, BodySide, body_offset, hind_back_share, kind_blend, rotation_from, swing_lift_dir,
-    swing_point, swing_point_along, trunk_blend, trunk_kind,
+    BodyOffset, BodySide, body_offset, hind_back_share, kind_blend, rotation_from,
+    smoothed_rotation, swing_lift_dir, swing_point, swing_point_along, trunk_blend, trunk_kind,
 };
-use super::collide::{NearSupports, torso_box_meets, torso_within};
+use super::collide::{MAX_BODIES, NearSupports, torso_box_meets, torso_within};
 use super::solve::lanes8;
 use super::transfer::transfer_not_taken;
 use super::turn::{Turn, TurnStep};
@@ -537,7 +537,88 @@ impl Sloth {
         if arc_flips(stance_at(Some(0.0)).rot, &bodies, &stances) {
             return false;
         }
-        !Self::bodies_penetrate_near(env, near(), &bodies)
+        if Self::bodies_penetrate_near(env, near(), &bodies) {
+            return false;
+        }
+        let trunk_walk = self.transfer.is_none()
+            && self.turn.is_none()
+            && is_trunk(support)
+            && (0..4).all(|k| held(k) == support);
+        !(trunk_walk
+            && self.trunk_walk_frames_penetrate(env, near(), &arc, &stances[STANCE_CHECKS - 1]))
+    }
+
+    /// Whether a trunk walk's step (every limb on one trunk, no transfer, no
+    /// turn) puts the body, drawn frame by frame as `body_average` will, into
+    /// a support among `near` (this sloth's), or leaves it settling into one.
+    ///
+    /// On a trunk the body faces the trunk from where it stood the frame
+    /// before (`BodySide::Body`): the drawn side follows the grips' mean
+    /// frames late and goes on turning while the grips stand still, toward
+    /// the side the mean lies on (`BodySide::Grips`, where it settles). The
+    /// arc's stances are all placed from the body as it stands now, so
+    /// over a swing the drawn body leaves them: the seed-11 crowd's sloth
+    /// 3803, walking a trunk head down past a branch, stepped LH with every
+    /// arc body clear of the branch by 0.5 mm or more (at most 1.2 mm in at
+    /// the end), and the body drawn during the swing went 10.6 mm into it,
+    /// as the frames drawn here show (10.6 mm at 90 %). So the frames of
+    /// the step are drawn here: the targets at each frame's progress on the
+    /// arc ([`StepArc::parts`]), the side from the frame before, the
+    /// rotation smoothed ([`smoothed_rotation`]); then the body the end
+    /// stance settles to.
+    fn trunk_walk_frames_penetrate(
+        &self,
+        env: &LocoView<'_>,
+        near: &NearSupports,
+        arc: &StepArc<'_>,
+        end: &StanceCheck,
+    ) -> bool {
+        let mut batch = [(Vec3::ZERO, Quat::IDENTITY); MAX_BODIES];
+        let mut n = 0;
+        let mut entered = false;
+        let drawn = self.trunk_walk_frames(env, arc, |pos, rot, last| {
+            batch[n] = (pos, rot);
+            n += 1;
+            if n == MAX_BODIES || last {
+                entered = Self::bodies_penetrate_near(env, near, &batch[..n]);
+                n = 0;
+            }
+            entered
+        });
+        if entered {
+            return true;
+        }
+        let e = &end.placed;
+        let (pos, rot) = drawn.body_for_targets(env, &e.grips, e.offset, BodySide::Grips);
+        Self::body_penetrates_near(env, near, pos, rot)
+    }
+
+    /// The bodies `body_average` draws over the step of `arc` on a trunk
+    /// walk, frame by frame ([`LocoView::frame_dt`]) until every limb has
+    /// landed: the targets at each frame's progress ([`StepArc::parts`]),
+    /// the side from the frame before, the rotation smoothed. Each is passed
+    /// to `visit` (position, rotation, whether it is the last) until it
+    /// returns true; returns the sloth as drawn at the last frame visited.
+    fn trunk_walk_frames(
+        &self,
+        env: &LocoView<'_>,
+        arc: &StepArc<'_>,
+        mut visit: impl FnMut(Vec3, Quat, bool) -> bool,
+    ) -> Sloth {
+        let dt = env.frame_dt;
+        let frames = (arc.window / dt).ceil().max(1.0) as usize;
+        let mut drawn = *self;
+        for f in 1..=frames {
+            let at = (f as f32 * dt / arc.window).min(1.0);
+            let (grips, _, offset) = arc.parts(env, Some(at));
+            let (pos, rot) = drawn.body_for_targets(env, &grips, offset, BodySide::Body);
+            drawn.body_rot = smoothed_rotation(env, drawn.body_rot, rot, dt);
+            drawn.body_pos = pos;
+            if visit(drawn.body_pos, drawn.body_rot, f == frames) {
+                break;
+            }
+        }
+        drawn
     }
 
     /// Whether every limb reaches the grip it holds, within its reach band
@@ -1336,6 +1417,85 @@ mod tests {
         let (deepest, taken) = drawn_crowd_step(include_str!("testdata/body_flip.json"));
         assert!(deepest > STANCE_MAX_PENETRATION, "{deepest}");
         assert!(!taken, "the step is taken");
+    }
+
+    /// Issue 24 (the seed-11 crowd, wanderer 3803 at 243.90 s; fixture
+    /// `testdata/trunk_walk_side.json`). Walking head down a trunk past a
+    /// branch no limb holds, the sloth steps its left hind limb down the
+    /// trunk; the bodies at the step's arc points are clear of the branch or
+    /// within 1.2 mm of it, but drawn frame by frame (facing the trunk from
+    /// where it stood the frame before) the body drifts around the trunk and
+    /// goes 10.6 mm into the branch at 90 % of the swing: the step is
+    /// rejected ([`Sloth::trunk_walk_frames_penetrate`]; main took it).
+    #[test]
+    fn trunk_walk_step_whose_drawn_body_drifts_into_a_branch_is_rejected() {
+        let (deepest, taken) = drawn_crowd_step(include_str!("testdata/trunk_walk_side.json"));
+        assert!(deepest > STANCE_MAX_PENETRATION, "{deepest}");
+        assert!(!taken, "the step is taken");
+    }
+
+    /// The frames the step checks draw for a trunk walk's step
+    /// ([`Sloth::trunk_walk_frames`]) are those `body_average` draws, frame
+    /// by frame (the fixture's step, and every other grip 2–20 cm down or
+    /// up the trunk from its limb).
+    #[test]
+    fn trunk_walk_frames_are_the_drawn_ones() {
+        let fx: serde_json::Value =
+            serde_json::from_str(include_str!("testdata/trunk_walk_side.json")).unwrap();
+        let forest: slothsim_scene::ForestConfig =
+            serde_json::from_value(fx["forest"].clone()).unwrap();
+        let sloth: Sloth = serde_json::from_value(fx["sloth"].clone()).unwrap();
+        let scene = slothsim_scene::generate_forest(&forest).unwrap();
+        let env = crate::LocoEnv::new(
+            crate::LocomotionConfig::profile(Profile::Free),
+            &slothsim_rig::Rig::sloth(),
+            slothsim_scene::TraceScene::new(scene),
+        )
+        .unwrap();
+        let view = env.view();
+        let mut compared = 0;
+        for li in 0..4 {
+            let g = sloth.limbs[li].grip;
+            let axis = Vec3::Y;
+            for k in -10..=10 {
+                if k == 0 {
+                    continue;
+                }
+                let grip = g.point + axis * (0.02 * k as f32);
+                let steps = [(li, grip, g.normal)];
+                let arc = StepArc::new(&sloth, &view, &steps, g.support, 1.0);
+                let mut checked = Vec::new();
+                sloth.trunk_walk_frames(&view, &arc, |pos, rot, _| {
+                    checked.push((pos, rot));
+                    false
+                });
+                let mut drawn = sloth;
+                let m = &mut drawn.limbs[li];
+                m.swing_to(Grip {
+                    point: grip,
+                    ..m.grip
+                });
+                let mut frames = Vec::new();
+                while drawn.any_swinging() {
+                    drawn.body_average(&view, view.frame_dt);
+                    frames.push((drawn.body_pos, drawn.body_rot));
+                }
+                assert_eq!(checked.len(), frames.len(), "limb {li}, {k}");
+                for (f, (a, b)) in checked.iter().zip(&frames).enumerate() {
+                    // The angle between the rotations (`angle_between` rounds
+                    // small angles up to 7e-4 rad).
+                    let dr = 2.0 * (a.1.conjugate() * b.1).xyz().length().min(1.0).asin();
+                    let dp = a.0.distance(b.0);
+                    assert!(
+                        dp < 1e-4 && dr < 1e-4,
+                        "limb {li}, {k}: frame {f} {dp} m, {dr} rad off"
+                    );
+                    compared += 1;
+                }
+            }
+        }
+        println!("{compared} frames compared");
+        assert!(compared > 1000, "{compared}");
     }
 
     /// The end stance first ([`stances_in_band_end_first`], its body tested
