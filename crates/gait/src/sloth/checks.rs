@@ -523,7 +523,9 @@ impl Sloth {
         // IK fails 30 % of the steps that need this test, the test 0.1 %
         // (every check here is pure: the order only decides how early a
         // step is rejected).
-        if !(kind_change || self.hang_trunk.is_some() || self.free_support_within_step(env, near()))
+        if !(kind_change
+            || self.hang_trunk.is_some()
+            || self.free_support_within_step(env, near(), steps))
         {
             return true;
         }
@@ -673,21 +675,34 @@ impl Sloth {
     /// entered their parent branch, held by no limb, 11.0 mm at 20 % of its
     /// fore limb's step from one to the other; one in a transfer, hind limbs
     /// on the trunk, entered that trunk 11.8 mm at 63–73 % of a fore step
-    /// along the branch). A branch the limbs hold is left out: the body
-    /// hangs from it, always within a step. The support's bounding box
-    /// first, then its segments' capsules.
+    /// along the branch). A branch the limbs that do not step hold is left
+    /// out: the body hangs from it, always within a step. The branch the
+    /// stepping limb leaves counts as free when no other limb holds it
+    /// (seed 2 with the dead-stance rule: a straddler's hind limb stepping
+    /// off the branch it alone held, onto the branch the others held; the
+    /// body entered the branch left 17.8 mm at 37–63 % of the swing, between
+    /// the IK checks' arc points). The support's bounding box first, then
+    /// its segments' capsules.
     ///
     /// `near`: this sloth's near supports (`Sloth::near_supports`, each
     /// once: the same `any`).
-    fn free_support_within_step(&self, env: &LocoView<'_>, near: &NearSupports) -> bool {
+    fn free_support_within_step(
+        &self,
+        env: &LocoView<'_>,
+        near: &NearSupports,
+        steps: &[(usize, Vec3, Vec3)],
+    ) -> bool {
         let scene = env.scene();
         let torso = [
             self.body_pos + self.body_rot * env.rig.torso_ms[0],
             self.body_pos + self.body_rot * env.rig.torso_ms[1],
         ];
-        let held = self.limb_map(|l| l.grip.support);
+        // Held through the swing: by the limbs that do not step.
+        let held = |id: SupportId| {
+            (0..4).any(|k| self.limbs[k].grip.support == id && steps.iter().all(|s| s.0 != k))
+        };
         near.iter().any(|id| {
-            (scene.support(id).kind == SupportKind::Trunk || !held.contains(&id))
+            (scene.support(id).kind == SupportKind::Trunk || !held(id))
                 && torso_box_meets(env, torso, env.cfg.max_step_m, id)
                 && torso_within(
                     scene.support(id),
@@ -1412,6 +1427,21 @@ mod tests {
     /// 45 % and 50 % of the swing, and drawn frame by frame the body swings
     /// through the trunk between them: the step is rejected ([`arc_flips`];
     /// main took it, and its body went 115.5 mm into the trunk).
+    /// Issue 24 (the seed-2 crowd with the dead-stance rule, wanderer 1397
+    /// at 127.53 s; fixture `testdata/left_branch.json`). Straddling two
+    /// branches, three limbs on one and its left hind limb alone on the
+    /// other, the sloth steps that limb onto the first; drawn frame by frame
+    /// the body enters the branch it leaves 17.8 mm at 37–63 % of the swing,
+    /// between the IK checks' arc points: the step is rejected (a build that
+    /// left every branch a limb held at the step's start out of the dense
+    /// arc check took it).
+    #[test]
+    fn step_into_the_branch_its_limb_leaves_is_rejected() {
+        let (deepest, taken) = drawn_crowd_step(include_str!("testdata/left_branch.json"));
+        assert!(deepest > STANCE_MAX_PENETRATION, "{deepest}");
+        assert!(!taken, "the step is taken");
+    }
+
     #[test]
     fn step_whose_body_frame_flips_between_arc_points_is_rejected() {
         let (deepest, taken) = drawn_crowd_step(include_str!("testdata/body_flip.json"));
