@@ -1419,14 +1419,6 @@ mod tests {
         assert!(!taken, "the step is taken");
     }
 
-    /// Issue 24 (the seed-9 crowd, wanderer 1697 at 71.57 s; fixture
-    /// `testdata/body_flip.json`). Hanging from a trunk (right fore limb), a
-    /// branch (both hind limbs) and another branch (left fore limb), the
-    /// sloth steps its left fore limb onto the trunk; the body placed at the
-    /// step's arc points is clear at each, but its frame turns 166° between
-    /// 45 % and 50 % of the swing, and drawn frame by frame the body swings
-    /// through the trunk between them: the step is rejected ([`arc_flips`];
-    /// main took it, and its body went 115.5 mm into the trunk).
     /// Issue 24 (the seed-2 crowd with the dead-stance rule, wanderer 1397
     /// at 127.53 s; fixture `testdata/left_branch.json`). Straddling two
     /// branches, three limbs on one and its left hind limb alone on the
@@ -1442,6 +1434,14 @@ mod tests {
         assert!(!taken, "the step is taken");
     }
 
+    /// Issue 24 (the seed-9 crowd, wanderer 1697 at 71.57 s; fixture
+    /// `testdata/body_flip.json`). Hanging from a trunk (right fore limb), a
+    /// branch (both hind limbs) and another branch (left fore limb), the
+    /// sloth steps its left fore limb onto the trunk; the body placed at the
+    /// step's arc points is clear at each, but its frame turns 166° between
+    /// 45 % and 50 % of the swing, and drawn frame by frame the body swings
+    /// through the trunk between them: the step is rejected ([`arc_flips`];
+    /// main took it, and its body went 115.5 mm into the trunk).
     #[test]
     fn step_whose_body_frame_flips_between_arc_points_is_rejected() {
         let (deepest, taken) = drawn_crowd_step(include_str!("testdata/body_flip.json"));
