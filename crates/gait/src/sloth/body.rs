@@ -16,7 +16,7 @@ use super::{LimbPhase, LimbState, LocoView, Sloth};
 
 /// The body turns up to this fast (rad/s) without smoothing lag; faster
 /// changes of formula 6's rotation are smoothed (`body_smoothing_s`).
-const BODY_FREE_TURN_RATE: f32 = 1.5;
+pub(super) const BODY_FREE_TURN_RATE: f32 = 1.5;
 
 /// The body's roll over a transfer follows the share of limbs on the trunk to this power.
 const TRANSFER_ROLL_POWER: f32 = 0.75;

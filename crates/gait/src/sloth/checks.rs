@@ -11,8 +11,9 @@ use slothsim_rig::{CcdParams, CcdResult, ChainPose, Limb, RootTransform};
 use slothsim_scene::{SupportId, SupportKind};
 
 use super::body::{
-    BodyOffset, BodySide, body_offset, hind_back_share, kind_blend, rotation_from,
-    smoothed_rotation, swing_lift_dir, swing_point, swing_point_along, trunk_blend, trunk_kind,
+    BODY_FREE_TURN_RATE, BodyOffset, BodySide, body_offset, hind_back_share, kind_blend,
+    rotation_from, smoothed_rotation, swing_lift_dir, swing_point, swing_point_along, trunk_blend,
+    trunk_kind,
 };
 use super::collide::{MAX_BODIES, NearSupports, torso_box_meets, torso_within};
 use super::solve::lanes8;
@@ -523,7 +524,9 @@ impl Sloth {
         // IK fails 30 % of the steps that need this test, the test 0.1 %
         // (every check here is pure: the order only decides how early a
         // step is rejected).
-        if !(kind_change || self.hang_trunk.is_some() || self.free_support_within_step(env, near()))
+        if !(kind_change
+            || self.hang_trunk.is_some()
+            || self.free_support_within_step(env, near(), steps))
         {
             return true;
         }
@@ -534,23 +537,46 @@ impl Sloth {
         // A frame that flips between neighbouring arc points (`arc_flips`):
         // the body drawn between them is none of those tested. Cheaper than
         // the sixteen bodies' test (one more stance placed), so first.
-        if arc_flips(stance_at(Some(0.0)).rot, &bodies, &stances) {
+        let start_rot = stance_at(Some(0.0)).rot;
+        if arc_flips(start_rot, &bodies, &stances) {
             return false;
         }
         if Self::bodies_penetrate_near(env, near(), &bodies) {
             return false;
         }
-        let trunk_walk = self.transfer.is_none()
-            && self.turn.is_none()
-            && is_trunk(support)
-            && (0..4).all(|k| held(k) == support);
-        !(trunk_walk
-            && self.trunk_walk_frames_penetrate(env, near(), &arc, &stances[STANCE_CHECKS - 1]))
+        // Outside transfers and turns the drawn rotation is smoothed
+        // (`smoothed_rotation`), and on a trunk walk the drawn side follows
+        // the body: there the frames are drawn as `body_average` will
+        // (`Sloth::drawn_frames_penetrate`).
+        let smoothed = self.transfer.is_none() && self.turn.is_none();
+        let trunk_walk = smoothed && is_trunk(support) && (0..4).all(|k| held(k) == support);
+        if trunk_walk {
+            return !self.drawn_frames_penetrate(
+                env,
+                near(),
+                &arc,
+                Some(&stances[STANCE_CHECKS - 1]),
+            );
+        }
+        !(smoothed
+            && arc_turn_rate(start_rot, &bodies, &stances, arc.window) > SMOOTHED_TURN_RATE
+            && self.drawn_frames_penetrate(env, near(), &arc, None))
     }
 
-    /// Whether a trunk walk's step (every limb on one trunk, no transfer, no
-    /// turn) puts the body, drawn frame by frame as `body_average` will, into
-    /// a support among `near` (this sloth's), or leaves it settling into one.
+    /// Whether a step (no transfer, no turn) puts the body, drawn frame by
+    /// frame as `body_average` will, into a support among `near` (this
+    /// sloth's), or, on a trunk walk (`settle`: the end stance; every limb
+    /// on one trunk), leaves it settling into one.
+    ///
+    /// Outside transfers and turns the drawn rotation follows formula 6's
+    /// exactly only while it turns slower than `BODY_FREE_TURN_RATE`; a
+    /// faster turn is smoothed (`smoothed_rotation`), and the drawn body lags
+    /// the arc's: the seed-2 crowd's sloth 1397 (with the dead-stance rule),
+    /// straddling two branches, stepped LH off the branch it alone held, the
+    /// arc's bodies at most 4.3 mm in that branch, and the drawn body, at the
+    /// same positions but turned up to 5.4° behind, went 10.7 mm into it.
+    /// Such steps (an arc turning faster than [`SMOOTHED_TURN_RATE`]) are
+    /// drawn here frame by frame.
     ///
     /// On a trunk the body faces the trunk from where it stood the frame
     /// before (`BodySide::Body`): the drawn side follows the grips' mean
@@ -566,17 +592,17 @@ impl Sloth {
     /// arc ([`StepArc::parts`]), the side from the frame before, the
     /// rotation smoothed ([`smoothed_rotation`]); then the body the end
     /// stance settles to.
-    fn trunk_walk_frames_penetrate(
+    fn drawn_frames_penetrate(
         &self,
         env: &LocoView<'_>,
         near: &NearSupports,
         arc: &StepArc<'_>,
-        end: &StanceCheck,
+        settle: Option<&StanceCheck>,
     ) -> bool {
         let mut batch = [(Vec3::ZERO, Quat::IDENTITY); MAX_BODIES];
         let mut n = 0;
         let mut entered = false;
-        let drawn = self.trunk_walk_frames(env, arc, |pos, rot, last| {
+        let drawn = self.drawn_frames(env, arc, |pos, rot, last| {
             batch[n] = (pos, rot);
             n += 1;
             if n == MAX_BODIES || last {
@@ -588,18 +614,20 @@ impl Sloth {
         if entered {
             return true;
         }
-        let e = &end.placed;
-        let (pos, rot) = drawn.body_for_targets(env, &e.grips, e.offset, BodySide::Grips);
-        Self::body_penetrates_near(env, near, pos, rot)
+        settle.is_some_and(|end| {
+            let e = &end.placed;
+            let (pos, rot) = drawn.body_for_targets(env, &e.grips, e.offset, BodySide::Grips);
+            Self::body_penetrates_near(env, near, pos, rot)
+        })
     }
 
-    /// The bodies `body_average` draws over the step of `arc` on a trunk
-    /// walk, frame by frame ([`LocoView::frame_dt`]) until every limb has
+    /// The bodies `body_average` draws over the step of `arc` (no transfer,
+    /// no turn), frame by frame ([`LocoView::frame_dt`]) until every limb has
     /// landed: the targets at each frame's progress ([`StepArc::parts`]),
     /// the side from the frame before, the rotation smoothed. Each is passed
     /// to `visit` (position, rotation, whether it is the last) until it
     /// returns true; returns the sloth as drawn at the last frame visited.
-    fn trunk_walk_frames(
+    fn drawn_frames(
         &self,
         env: &LocoView<'_>,
         arc: &StepArc<'_>,
@@ -673,21 +701,34 @@ impl Sloth {
     /// entered their parent branch, held by no limb, 11.0 mm at 20 % of its
     /// fore limb's step from one to the other; one in a transfer, hind limbs
     /// on the trunk, entered that trunk 11.8 mm at 63–73 % of a fore step
-    /// along the branch). A branch the limbs hold is left out: the body
-    /// hangs from it, always within a step. The support's bounding box
-    /// first, then its segments' capsules.
+    /// along the branch). A branch the limbs that do not step hold is left
+    /// out: the body hangs from it, always within a step. The branch the
+    /// stepping limb leaves counts as free when no other limb holds it
+    /// (seed 2 with the dead-stance rule: a straddler's hind limb stepping
+    /// off the branch it alone held, onto the branch the others held; the
+    /// body entered the branch left 17.8 mm at 37–63 % of the swing, between
+    /// the IK checks' arc points). The support's bounding box first, then
+    /// its segments' capsules.
     ///
     /// `near`: this sloth's near supports (`Sloth::near_supports`, each
     /// once: the same `any`).
-    fn free_support_within_step(&self, env: &LocoView<'_>, near: &NearSupports) -> bool {
+    fn free_support_within_step(
+        &self,
+        env: &LocoView<'_>,
+        near: &NearSupports,
+        steps: &[(usize, Vec3, Vec3)],
+    ) -> bool {
         let scene = env.scene();
         let torso = [
             self.body_pos + self.body_rot * env.rig.torso_ms[0],
             self.body_pos + self.body_rot * env.rig.torso_ms[1],
         ];
-        let held = self.limb_map(|l| l.grip.support);
+        // Held through the swing: by the limbs that do not step.
+        let held = |id: SupportId| {
+            (0..4).any(|k| self.limbs[k].grip.support == id && steps.iter().all(|s| s.0 != k))
+        };
         near.iter().any(|id| {
-            (scene.support(id).kind == SupportKind::Trunk || !held.contains(&id))
+            (scene.support(id).kind == SupportKind::Trunk || !held(id))
                 && torso_box_meets(env, torso, env.cfg.max_step_m, id)
                 && torso_within(
                     scene.support(id),
@@ -1105,6 +1146,37 @@ fn arc_flips(
         .any(|w| w[0].1.angle_between(w[1].1) > MAX_ARC_TURN)
 }
 
+/// The fastest turn of formula 6's rotation between neighbouring checked
+/// bodies of a step's arc (see [`arc_flips`]), in radians a second over a
+/// swing window of `window` seconds.
+fn arc_turn_rate(
+    start: Quat,
+    arc: &[(Vec3, Quat); TRANSFER_BODY_CHECKS.len()],
+    stances: &[StanceCheck; STANCE_CHECKS],
+    window: f32,
+) -> f32 {
+    const N: usize = 1 + TRANSFER_BODY_CHECKS.len() + SWING_CHECKS.len();
+    let mut rots = [(0.0, start); N];
+    for (k, (&t, &(_, rot))) in TRANSFER_BODY_CHECKS.iter().zip(arc).enumerate() {
+        rots[1 + k] = (t, rot);
+    }
+    for (k, (&t, st)) in SWING_CHECKS.iter().zip(stances).enumerate() {
+        rots[1 + TRANSFER_BODY_CHECKS.len() + k] = (t, st.placed.rot);
+    }
+    rots.sort_by(|a, b| a.0.total_cmp(&b.0));
+    rots.windows(2)
+        .filter(|w| w[1].0 > w[0].0)
+        .map(|w| w[0].1.angle_between(w[1].1) / ((w[1].0 - w[0].0) * window))
+        .fold(0.0, f32::max)
+}
+
+/// Turn rate of a step's checked bodies (rad/s) above which its frames are
+/// drawn as `body_average` draws them: half of `BODY_FREE_TURN_RATE`, the
+/// rate below which the drawn rotation is formula 6's exactly (the arc's
+/// points are 5 % of the swing apart, and the turn between two of them
+/// need not be even).
+const SMOOTHED_TURN_RATE: f32 = 0.5 * BODY_FREE_TURN_RATE;
+
 /// Whether each limb's chain root in stance `st` is within its reach band
 /// of the limb's IK target.
 fn in_band(env: &LocoView<'_>, st: &StanceCheck) -> bool {
@@ -1404,6 +1476,36 @@ mod tests {
         assert!(!taken, "the step is taken");
     }
 
+    /// Issue 24 (the seed-2 crowd with the dead-stance rule, wanderer 1397
+    /// at 127.53 s; fixture `testdata/left_branch.json`). Straddling two
+    /// branches, three limbs on one and its left hind limb alone on the
+    /// other, the sloth steps that limb onto the first; drawn frame by frame
+    /// the body enters the branch it leaves 17.8 mm at 37–63 % of the swing,
+    /// between the IK checks' arc points: the step is rejected (a build that
+    /// left every branch a limb held at the step's start out of the dense
+    /// arc check took it).
+    #[test]
+    fn step_into_the_branch_its_limb_leaves_is_rejected() {
+        let (deepest, taken) = drawn_crowd_step(include_str!("testdata/left_branch.json"));
+        assert!(deepest > STANCE_MAX_PENETRATION, "{deepest}");
+        assert!(!taken, "the step is taken");
+    }
+
+    /// Issue 24 (the seed-2 crowd with the dead-stance rule, wanderer 1397
+    /// at 127.78 s; fixture `testdata/smoothed_turn.json`). Straddling two
+    /// branches, the sloth steps its left hind limb off the branch it alone
+    /// holds; the arc's frame turns faster than the drawn rotation may
+    /// follow, and drawn frame by frame (at the arc's positions, turned up
+    /// to 5.4° behind) the body enters that branch 10.7 mm at 50 % of the
+    /// swing, while the arc's bodies enter it 4.3 mm at most: the step is
+    /// rejected ([`Sloth::drawn_frames_penetrate`]).
+    #[test]
+    fn step_whose_smoothed_body_lags_into_a_branch_is_rejected() {
+        let (deepest, taken) = drawn_crowd_step(include_str!("testdata/smoothed_turn.json"));
+        assert!(deepest > STANCE_MAX_PENETRATION, "{deepest}");
+        assert!(!taken, "the step is taken");
+    }
+
     /// Issue 24 (the seed-9 crowd, wanderer 1697 at 71.57 s; fixture
     /// `testdata/body_flip.json`). Hanging from a trunk (right fore limb), a
     /// branch (both hind limbs) and another branch (left fore limb), the
@@ -1426,7 +1528,7 @@ mod tests {
     /// within 1.2 mm of it, but drawn frame by frame (facing the trunk from
     /// where it stood the frame before) the body drifts around the trunk and
     /// goes 10.6 mm into the branch at 90 % of the swing: the step is
-    /// rejected ([`Sloth::trunk_walk_frames_penetrate`]; main took it).
+    /// rejected ([`Sloth::drawn_frames_penetrate`]; main took it).
     #[test]
     fn trunk_walk_step_whose_drawn_body_drifts_into_a_branch_is_rejected() {
         let (deepest, taken) = drawn_crowd_step(include_str!("testdata/trunk_walk_side.json"));
@@ -1435,7 +1537,7 @@ mod tests {
     }
 
     /// The frames the step checks draw for a trunk walk's step
-    /// ([`Sloth::trunk_walk_frames`]) are those `body_average` draws, frame
+    /// ([`Sloth::drawn_frames`]) are those `body_average` draws, frame
     /// by frame (the fixture's step, and every other grip 2–20 cm down or
     /// up the trunk from its limb).
     #[test]
@@ -1465,7 +1567,7 @@ mod tests {
                 let steps = [(li, grip, g.normal)];
                 let arc = StepArc::new(&sloth, &view, &steps, g.support, 1.0);
                 let mut checked = Vec::new();
-                sloth.trunk_walk_frames(&view, &arc, |pos, rot, _| {
+                sloth.drawn_frames(&view, &arc, |pos, rot, _| {
                     checked.push((pos, rot));
                     false
                 });

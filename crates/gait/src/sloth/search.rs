@@ -204,9 +204,7 @@ impl Sloth {
             }) {
                 continue;
             }
-            // Stuck (a search gave up since the last step): any step that
-            // passes its checks changes the stance, and may unlock it.
-            if self.stuck_cause.is_none() && !self.leaves_a_step(env, li, grip, pair_grip) {
+            if !self.leaves_a_way_on(env, li, grip, pair_grip) {
                 continue;
             }
             // A wanderer climbing a trunk keeps its way back down (with the
@@ -448,6 +446,72 @@ impl Sloth {
             .into_iter()
             .filter(|&lj| lj != li && pair.is_none_or(|(pi, _)| lj != pi))
             .any(|lj| next.has_step(env, lj))
+    }
+
+    /// Whether the step of limb `li` to `grip` (and the hind pair's partner
+    /// to its grip) leaves the sloth a way on: the lookahead
+    /// ([`Self::leaves_a_step`]); stuck (a search gave up since the last
+    /// step), any step that passes its checks changes the stance and may
+    /// unlock it, so the lookahead is skipped, but a wanderer does not step
+    /// into a stance no limb can leave either way ([`Self::keeps_a_way`]).
+    pub(super) fn leaves_a_way_on(
+        &self,
+        env: &LocoView<'_>,
+        li: usize,
+        grip: Grip,
+        pair: Option<(usize, Grip)>,
+    ) -> bool {
+        if self.stuck_cause.is_none() {
+            self.leaves_a_step(env, li, grip, pair)
+        } else {
+            self.keeps_a_way(env, li, grip, pair)
+        }
+    }
+
+    /// Wander mode, stuck (a search gave up since the last step, so the
+    /// lookahead [`Self::leaves_a_step`] is skipped): after limb `li` steps
+    /// to `grip` (and the hind pair's partner to its grip), some limb still
+    /// has a step, with the other sloths ignored, travelling either way (as
+    /// now or turned back), unless the stance has none already (then any step
+    /// may change that). The other sloths move on and a turn back is what a
+    /// give-up does next, so a stance with a step either way is one the
+    /// wanderer can leave; one with none it never leaves. Traced in the
+    /// 5,000 × 300 s crowd at seed 11 (docs/locomotion.md, "Dead stances"):
+    /// half-done branch ↔ trunk transfers whose last step, taken without the
+    /// lookahead after a give-up, left every limb without a step both ways,
+    /// and the wanderer turned back and waited there for the rest of the run.
+    /// Goal mode: true (it re-plans).
+    pub(super) fn keeps_a_way(
+        &self,
+        env: &LocoView<'_>,
+        li: usize,
+        grip: Grip,
+        pair: Option<(usize, Grip)>,
+    ) -> bool {
+        if !self.wander {
+            return true;
+        }
+        !self.has_a_way(env)
+            || self
+                .after_steps(env, std::iter::once((li, grip)).chain(pair))
+                .has_a_way(env)
+    }
+
+    /// Whether some limb has a step with the other sloths ignored, travelling
+    /// as now or turned back (see [`Self::keeps_a_way`]).
+    pub(super) fn has_a_way(&self, env: &LocoView<'_>) -> bool {
+        let alone = LocoView {
+            crowd: None,
+            ..*env
+        };
+        let mut back = *self;
+        back.dir = -back.dir;
+        for l in &mut back.limbs {
+            l.grip.sdir = -l.grip.sdir;
+        }
+        [self, &back]
+            .iter()
+            .any(|s| (0..4).any(|lj| s.has_step(&alone, lj)))
     }
 
     /// Wander mode, climbing a trunk head up with all four limbs on it (no
@@ -1136,6 +1200,68 @@ mod gather_tests {
         assert!(
             cases >= 10 && only_gathering > 0 && 2 * gathered >= cases,
             "{cases} straddles, {gathered} gathered, {only_gathering} limbs with gathering steps only"
+        );
+    }
+}
+
+#[cfg(test)]
+mod dead_stance_tests {
+    use slothsim_rig::Rig;
+    use slothsim_scene::{SupportId, TraceScene};
+
+    use super::super::{Grip, Sloth};
+    use crate::{LocoEnv, LocomotionConfig, Profile};
+
+    /// Issue 24 (the seed-11 crowd, wanderer 1403 at 19.93 s; fixture
+    /// `testdata/dead_stance.json`). Stuck (its search gave up, then it
+    /// turned back) half across a branch → trunk transfer, the left fore
+    /// limb on the trunk and the other three on the branch by its root, the
+    /// wanderer has a step (some limb, one way or the other, the other
+    /// sloths ignored); its right fore limb's step onto the trunk passes
+    /// every check, and after it no limb has a step either way: the step is
+    /// refused ([`Sloth::keeps_a_way`]; main took it, without the lookahead,
+    /// and the wanderer stood there from 19.93 s to the end of the run).
+    #[test]
+    fn a_stuck_wanderers_step_into_a_dead_stance_is_refused() {
+        let fx: serde_json::Value =
+            serde_json::from_str(include_str!("testdata/dead_stance.json")).unwrap();
+        let forest: slothsim_scene::ForestConfig =
+            serde_json::from_value(fx["forest"].clone()).unwrap();
+        let sloth: Sloth = serde_json::from_value(fx["sloth"].clone()).unwrap();
+        let step = &fx["step"];
+        let v =
+            |x: &serde_json::Value| -> glam::Vec3 { serde_json::from_value(x.clone()).unwrap() };
+        let li = step["limb"].as_u64().unwrap() as usize;
+        let grip = Grip {
+            point: v(&step["point"]),
+            normal: v(&step["normal"]),
+            support: SupportId(step["support"].as_u64().unwrap() as u32),
+            u: step["u"].as_f64().unwrap() as f32,
+            sdir: step["sdir"].as_f64().unwrap() as f32,
+        };
+        let scene = slothsim_scene::generate_forest(&forest).unwrap();
+        let env = LocoEnv::new(
+            LocomotionConfig::profile(Profile::Free),
+            &Rig::sloth(),
+            TraceScene::new(scene),
+        )
+        .unwrap();
+        let view = env.view();
+        for l in &sloth.limbs {
+            let s = view.scene().support(l.grip.support);
+            let gap = crate::path::surface_gap(view.query, s, l.grip.point);
+            assert!(gap.abs() < 1e-3, "grip {gap} m off its support");
+        }
+        assert!(sloth.wander && sloth.stuck_cause.is_some() && sloth.transfer.is_some());
+        // The step passes its checks (reach within the joint limits,
+        // penetration, leg order, head up: the search queued and traced it).
+        assert!(sloth.step_reachable(&view, li, grip.point, grip.normal, grip.support));
+        assert!(sloth.has_a_way(&view), "the stance before has a way");
+        let after = sloth.after_steps(&view, [(li, grip)]);
+        assert!(!after.has_a_way(&view), "the stance after has a way");
+        assert!(
+            !sloth.leaves_a_way_on(&view, li, grip, None),
+            "the step into a dead stance is taken"
         );
     }
 }
