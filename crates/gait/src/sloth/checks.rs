@@ -1445,6 +1445,15 @@ mod tests {
         )
     }
 
+    /// A fixture's step ([`drawn_crowd_step`]) whose body, drawn frame by
+    /// frame, enters a support beyond [`STANCE_MAX_PENETRATION`], and which
+    /// the step checks refuse.
+    fn assert_drawn_step_rejected(fixture: &str) {
+        let (deepest, taken) = drawn_crowd_step(fixture);
+        assert!(deepest > STANCE_MAX_PENETRATION, "{deepest}");
+        assert!(!taken, "the step is taken");
+    }
+
     /// Issue 24 (the seed-6 crowd, sloth 3267 at 90.8 s; fixture
     /// `testdata/straddle_fork.json`). Straddling two branches of a fork
     /// (fore limbs on one, hind limbs on the other), the sloth steps its
@@ -1456,9 +1465,7 @@ mod tests {
     /// checked the body at every 5 % of the arc only near a trunk).
     #[test]
     fn straddling_step_into_the_forks_parent_is_rejected() {
-        let (deepest, taken) = drawn_crowd_step(include_str!("testdata/straddle_fork.json"));
-        assert!(deepest > STANCE_MAX_PENETRATION, "{deepest}");
-        assert!(!taken, "the step is taken");
+        assert_drawn_step_rejected(include_str!("testdata/straddle_fork.json"));
     }
 
     /// Issue 24 (the seed-5 crowd, sloth 1116 at 292.7 s; fixture
@@ -1471,9 +1478,7 @@ mod tests {
     /// limb holds took it).
     #[test]
     fn step_into_the_held_trunk_between_arc_points_is_rejected() {
-        let (deepest, taken) = drawn_crowd_step(include_str!("testdata/transfer_held_trunk.json"));
-        assert!(deepest > STANCE_MAX_PENETRATION, "{deepest}");
-        assert!(!taken, "the step is taken");
+        assert_drawn_step_rejected(include_str!("testdata/transfer_held_trunk.json"));
     }
 
     /// Issue 24 (the seed-2 crowd with the dead-stance rule, wanderer 1397
@@ -1486,9 +1491,7 @@ mod tests {
     /// arc check took it).
     #[test]
     fn step_into_the_branch_its_limb_leaves_is_rejected() {
-        let (deepest, taken) = drawn_crowd_step(include_str!("testdata/left_branch.json"));
-        assert!(deepest > STANCE_MAX_PENETRATION, "{deepest}");
-        assert!(!taken, "the step is taken");
+        assert_drawn_step_rejected(include_str!("testdata/left_branch.json"));
     }
 
     /// Issue 24 (the seed-2 crowd with the dead-stance rule, wanderer 1397
@@ -1501,9 +1504,7 @@ mod tests {
     /// rejected ([`Sloth::drawn_frames_penetrate`]).
     #[test]
     fn step_whose_smoothed_body_lags_into_a_branch_is_rejected() {
-        let (deepest, taken) = drawn_crowd_step(include_str!("testdata/smoothed_turn.json"));
-        assert!(deepest > STANCE_MAX_PENETRATION, "{deepest}");
-        assert!(!taken, "the step is taken");
+        assert_drawn_step_rejected(include_str!("testdata/smoothed_turn.json"));
     }
 
     /// Issue 24 (the seed-9 crowd, wanderer 1697 at 71.57 s; fixture
@@ -1516,9 +1517,7 @@ mod tests {
     /// main took it, and its body went 115.5 mm into the trunk).
     #[test]
     fn step_whose_body_frame_flips_between_arc_points_is_rejected() {
-        let (deepest, taken) = drawn_crowd_step(include_str!("testdata/body_flip.json"));
-        assert!(deepest > STANCE_MAX_PENETRATION, "{deepest}");
-        assert!(!taken, "the step is taken");
+        assert_drawn_step_rejected(include_str!("testdata/body_flip.json"));
     }
 
     /// Issue 24 (the seed-11 crowd, wanderer 3803 at 243.90 s; fixture
@@ -1531,9 +1530,7 @@ mod tests {
     /// rejected ([`Sloth::drawn_frames_penetrate`]; main took it).
     #[test]
     fn trunk_walk_step_whose_drawn_body_drifts_into_a_branch_is_rejected() {
-        let (deepest, taken) = drawn_crowd_step(include_str!("testdata/trunk_walk_side.json"));
-        assert!(deepest > STANCE_MAX_PENETRATION, "{deepest}");
-        assert!(!taken, "the step is taken");
+        assert_drawn_step_rejected(include_str!("testdata/trunk_walk_side.json"));
     }
 
     /// The frames the step checks draw for a trunk walk's step
