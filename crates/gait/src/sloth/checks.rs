@@ -541,15 +541,31 @@ impl Sloth {
         if arc_flips(start_rot, &bodies, &stances) {
             return false;
         }
-        if Self::bodies_penetrate_near(env, near(), &bodies) {
-            return false;
-        }
         // Outside transfers and turns the drawn rotation is smoothed
         // (`smoothed_rotation`), and on a trunk walk the drawn side follows
         // the body: there the frames are drawn as `body_average` will
         // (`Sloth::drawn_frames_penetrate`).
         let smoothed = self.transfer.is_none() && self.turn.is_none();
         let trunk_walk = smoothed && is_trunk(support) && (0..4).all(|k| held(k) == support);
+        let draw = !trunk_walk
+            && smoothed
+            && arc_turn_rate(start_rot, &bodies, &stances, arc.window) > SMOOTHED_TURN_RATE;
+        // An arc whose bodies all stay `DRAWN_SKIP_CLEARANCE_M` clear of the
+        // supports passes the sixteen bodies' test (no body of it is deeper
+        // than that test's 5 mm limit) and its frames are not drawn: they lie within
+        // millimetres of the arc's bodies, turned from them by the lag
+        // (see the constant).
+        if draw && !Self::bodies_deeper_near(env, near(), &bodies, -DRAWN_SKIP_CLEARANCE_M) {
+            #[cfg(test)]
+            tests::DRAWN_SKIPPED.with(|v| {
+                v.borrow_mut()
+                    .push((*self, steps.to_vec(), support, back_scale))
+            });
+            return true;
+        }
+        if Self::bodies_penetrate_near(env, near(), &bodies) {
+            return false;
+        }
         if trunk_walk {
             return !self.drawn_frames_penetrate(
                 env,
@@ -558,9 +574,7 @@ impl Sloth {
                 Some(&stances[STANCE_CHECKS - 1]),
             );
         }
-        !(smoothed
-            && arc_turn_rate(start_rot, &bodies, &stances, arc.window) > SMOOTHED_TURN_RATE
-            && self.drawn_frames_penetrate(env, near(), &arc, None))
+        !(draw && self.drawn_frames_penetrate(env, near(), &arc, None))
     }
 
     /// Whether a step (no transfer, no turn) puts the body, drawn frame by
@@ -1177,6 +1191,23 @@ fn arc_turn_rate(
 /// need not be even).
 const SMOOTHED_TURN_RATE: f32 = 0.5 * BODY_FREE_TURN_RATE;
 
+/// Clearance (m) from every support near the grips of all sixteen bodies of
+/// a step's arc (every 5 % of it) above which its frames are not drawn
+/// (`Sloth::drawn_frames_penetrate`, off a trunk walk). A drawn frame stands
+/// at formula 6's position for its progress, turned from formula 6's
+/// rotation by the smoothing's lag: its torso (ends 0.25 m from the body's
+/// origin) lies within the lag times 0.25 m of formula 6's torso there, and
+/// that one within the arc's own movement between two of its bodies 5 % of
+/// the swing apart (a few millimetres; 5.7 mm past half the movement at
+/// most between the coarser stances, the nineteenth round of
+/// docs/performance.md). Measured over every arc whose frames the rule
+/// draws in a free 1,000-sloth crowd's first 60 s and in 20 s of it at 60 s
+/// (19,403 arcs): the lag is at most 7.4° (32 mm), under 0.06° in 99 %, and
+/// every drawn frame that entered a support came from an arc already within
+/// 0 mm of one (docs/performance.md, twenty-second round). 80 mm is 2.5
+/// times the largest lag's reach.
+const DRAWN_SKIP_CLEARANCE_M: f32 = 0.08;
+
 /// Whether each limb's chain root in stance `st` is within its reach band
 /// of the limb's IK target.
 fn in_band(env: &LocoView<'_>, st: &StanceCheck) -> bool {
@@ -1266,7 +1297,8 @@ mod tests {
     use super::*;
     use crate::Profile;
     use crate::sloth::collide::STANCE_MAX_PENETRATION;
-    use crate::sloth::test_util::{preset_sloth, walk_presets, walk_presets_with, xorshift};
+    use crate::sloth::test_util::{preset_sloth, tick, walk_presets, walk_presets_with, xorshift};
+    use crate::sloth::{NearRing, TraceBatch};
 
     /// [`beyond_polish`] (the stances' lanes tested before any is polished)
     /// against [`reach_check_polish`]: on random limbs, roots, targets and
@@ -1531,6 +1563,68 @@ mod tests {
     #[test]
     fn trunk_walk_step_whose_drawn_body_drifts_into_a_branch_is_rejected() {
         assert_drawn_step_rejected(include_str!("testdata/trunk_walk_side.json"));
+    }
+
+    /// A step check whose frames were not drawn, its arc clear of the
+    /// supports by [`DRAWN_SKIP_CLEARANCE_M`]: the sloth, the steps, the
+    /// support and the hindquarters' scale it was asked with.
+    type Skipped = (Sloth, Vec<(usize, Vec3, Vec3)>, SupportId, f32);
+
+    thread_local! {
+        /// The step checks of this thread whose frames were not drawn.
+        pub(super) static DRAWN_SKIPPED: std::cell::RefCell<Vec<Skipped>> =
+            const { std::cell::RefCell::new(Vec::new()) };
+    }
+
+    /// Steps whose arc turns faster than [`SMOOTHED_TURN_RATE`] with every
+    /// body of it [`DRAWN_SKIP_CLEARANCE_M`] clear of the supports are taken
+    /// without their frames drawn; drawn, those frames enter no support
+    /// (the crowd fixtures' sloths, each walked on for 60 s in its forest:
+    /// every step check they make).
+    #[test]
+    fn arcs_clear_by_the_margin_are_not_drawn() {
+        let fixtures = [
+            include_str!("testdata/straddle_fork.json"),
+            include_str!("testdata/transfer_held_trunk.json"),
+            include_str!("testdata/left_branch.json"),
+            include_str!("testdata/smoothed_turn.json"),
+            include_str!("testdata/body_flip.json"),
+            include_str!("testdata/trunk_walk_side.json"),
+            include_str!("testdata/dead_stance.json"),
+        ];
+        let (mut skipped, mut frames) = (0, 0);
+        for fixture in fixtures {
+            let fx: serde_json::Value = serde_json::from_str(fixture).unwrap();
+            let forest: slothsim_scene::ForestConfig =
+                serde_json::from_value(fx["forest"].clone()).unwrap();
+            let mut sloth: Sloth = serde_json::from_value(fx["sloth"].clone()).unwrap();
+            let scene = slothsim_scene::generate_forest(&forest).unwrap();
+            let env = crate::LocoEnv::new(
+                crate::LocomotionConfig::profile(Profile::Free),
+                &slothsim_rig::Rig::sloth(),
+                slothsim_scene::TraceScene::new(scene),
+            )
+            .unwrap();
+            let view = env.view();
+            let mut batch = TraceBatch::default();
+            let mut near = NearRing::default();
+            DRAWN_SKIPPED.with(|v| v.borrow_mut().clear());
+            for frame in 0..3600 {
+                tick(&mut sloth, &mut near, &view, &mut batch);
+                frames += 1;
+                for (s, steps, support, back_scale) in DRAWN_SKIPPED.with(|v| v.take()) {
+                    let list = s.near_supports_list(&view);
+                    let arc = StepArc::new(&s, &view, &steps, support, back_scale);
+                    assert!(
+                        !s.drawn_frames_penetrate(&view, &list, &arc, None),
+                        "frame {frame}: a skipped arc's drawn frames enter a support"
+                    );
+                    skipped += 1;
+                }
+            }
+        }
+        println!("{skipped} step checks in {frames} frames taken without their frames drawn");
+        assert!(skipped > 0, "no step check skipped its frames");
     }
 
     /// The frames the step checks draw for a trunk walk's step

@@ -381,6 +381,19 @@ impl Sloth {
         near: &NearSupports,
         bodies: &[(Vec3, Quat)],
     ) -> bool {
+        Self::bodies_deeper_near(env, near, bodies, STANCE_MAX_PENETRATION)
+    }
+
+    /// Whether any of the bodies `bodies` (at most [`MAX_BODIES`]) enters a
+    /// support among `near` deeper than `depth` (negative: comes within
+    /// `−depth` of its surface): [`Self::bodies_penetrate_near`] at another
+    /// depth, the same exact test of each torso ([`torsos_penetrate`]).
+    pub(super) fn bodies_deeper_near(
+        env: &LocoView<'_>,
+        near: &NearSupports,
+        bodies: &[(Vec3, Quat)],
+        depth: f32,
+    ) -> bool {
         assert!(bodies.len() <= MAX_BODIES, "at most {MAX_BODIES} bodies");
         if bodies.is_empty() {
             return false;
@@ -413,7 +426,7 @@ impl Sloth {
                 bounds,
                 &path,
                 &all,
-                STANCE_MAX_PENETRATION,
+                depth,
             )
         })
     }
