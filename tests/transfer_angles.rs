@@ -4,11 +4,12 @@
 //! goal's support, every judge measure within tolerance).
 //!
 //! `transfers_pass_at_random_angles` is the issue's goal — every draw in
-//! 60–160° passes — and is ignored until it holds (`cargo test --release
-//! --test transfer_angles -- --ignored`; docs/scenarios.md lists the
-//! angles that still fail). Its seed is `SLOTHSIM_TEST_SEED`, or else a new
-//! one each day (printed). `transfer_pass_share_holds` runs in every CI
-//! run on a fixed seed and keeps the measured share from falling.
+//! 60–160° passes. Its seed is `SLOTHSIM_TEST_SEED`, or else a new one each
+//! day (printed), so each day's CI run draws angles no rule was tuned on.
+//! It held at seeds 1–40 and at ten seeds of the days around 2026-11-28
+//! once a back-off's length was chosen by playouts (before: 2 of seeds 1–20
+//! failed); docs/scenarios.md lists the fresh draws that still fail
+//! elsewhere. `transfer_pass_share_holds` runs on a fixed seed.
 
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
@@ -63,7 +64,6 @@ fn report(results: &[(Draw, Vec<String>)]) -> String {
 }
 
 #[test]
-#[ignore = "issue 24's goal, not yet met: docs/scenarios.md lists the transfer angles that still fail"]
 fn transfers_pass_at_random_angles() {
     let seed = std::env::var("SLOTHSIM_TEST_SEED")
         .ok()

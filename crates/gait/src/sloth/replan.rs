@@ -16,13 +16,22 @@ use serde::{Deserialize, Serialize};
 
 use slothsim_rig::Limb;
 
-use super::{LocoView, Sloth};
+use super::{LocoView, NearRing, Sloth, Status, TraceBatch};
 
 /// Re-plans a goal-mode sloth makes before it stops (`no_grip`).
 const MAX_REPLANS: u8 = 6;
 
-/// A back-off lasts this many gait cycles.
+/// A back-off lasts this many gait cycles, unless a playout chooses
+/// another of [`BACKOFF_CHOICES`].
 const BACKOFF_CYCLES: f32 = 1.0;
+
+/// The lengths (gait cycles) a fresh back-off may take, in the order they
+/// are played out; the first is [`BACKOFF_CYCLES`].
+const BACKOFF_CHOICES: [f32; 5] = [BACKOFF_CYCLES, 2.0, 3.0, 4.0, 0.5];
+
+/// How far ahead (simulated seconds) a back-off's playout looks for the
+/// arrival.
+const PLAYOUT_S: f32 = 60.0;
 
 /// A back-off under way (see the module docs).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -31,6 +40,10 @@ pub struct Backoff {
     pub until_s: f32,
     /// The travel direction toward the goal (restored then).
     pub dir: f32,
+    /// Whether its length was chosen by playouts (`Sloth::plan_backoff`).
+    /// Checkpointed (format 29).
+    #[serde(default)]
+    pub planned: bool,
 }
 
 impl Sloth {
@@ -75,11 +88,79 @@ impl Sloth {
                 self.backoff = Some(Backoff {
                     until_s: self.time + BACKOFF_CYCLES * env.cycle_s,
                     dir: self.dir,
+                    planned: false,
                 });
                 self.face(-self.dir);
             }
         }
         true
+    }
+
+    /// A back-off just started (not yet planned): its length is chosen by
+    /// playing the sloth out alone, whole frames as the crowd's pass runs
+    /// them, from this frame's step search on: the first of
+    /// [`BACKOFF_CHOICES`] with which it arrives within [`PLAYOUT_S`]; with
+    /// none, the default one cycle. The same back-off every time sent a
+    /// circling transfer back into the same circle (branch_trunk to-trunk
+    /// 0.15 m 148.6503°: three give-ups 20 s apart, each with the same
+    /// one-cycle back-off, to the time limit).
+    pub(super) fn plan_backoff(
+        &mut self,
+        env: &LocoView<'_>,
+        batch: &TraceBatch,
+        near: Option<&NearRing>,
+    ) {
+        let Some(b) = self.backoff.filter(|b| !b.planned) else {
+            return;
+        };
+        let from_s = b.until_s - BACKOFF_CYCLES * env.cycle_s;
+        let with = |k: f32| {
+            let mut s = *self;
+            s.backoff = Some(Backoff {
+                until_s: from_s + k * env.cycle_s,
+                planned: true,
+                ..b
+            });
+            s
+        };
+        let k = BACKOFF_CHOICES
+            .into_iter()
+            .find(|&k| with(k).arrives_within(env, batch.clone(), near.copied(), PLAYOUT_S))
+            .unwrap_or(BACKOFF_CYCLES);
+        *self = with(k);
+    }
+
+    /// Whether this sloth, played out alone for `horizon_s` (whole frames,
+    /// the crowd pass's stages in order; back-offs met on the way keep
+    /// their default length), arrives at its goal.
+    fn arrives_within(
+        mut self,
+        env: &LocoView<'_>,
+        mut batch: TraceBatch,
+        mut near: Option<NearRing>,
+        horizon_s: f32,
+    ) -> bool {
+        let dt = env.frame_dt;
+        let frames = (horizon_s / dt).ceil() as u32;
+        for f in 0..frames {
+            if f > 0 && self.traces_queued {
+                batch.run(&env.query);
+            }
+            if let Some(b) = &mut self.backoff {
+                b.planned = true;
+            }
+            self.step_search_planned(env, &mut batch, near.as_mut());
+            self.body_average(env, dt);
+            self.solve_limbs(env);
+            self.grip_load(env, dt, 1);
+            self.transitions(env, dt, &mut batch);
+            match self.status {
+                Status::Arrived => return true,
+                Status::NoGrip => return false,
+                Status::Moving => {}
+            }
+        }
+        false
     }
 
     /// Ends a back-off whose time is up: the sloth turns toward its goal.

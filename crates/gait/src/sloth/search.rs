@@ -76,6 +76,19 @@ impl Sloth {
         &mut self,
         env: &LocoView<'_>,
         batch: &mut TraceBatch,
+        near: Option<&mut NearRing>,
+    ) {
+        if self.backoff.is_some_and(|b| !b.planned) {
+            self.plan_backoff(env, batch, near.as_deref());
+        }
+        self.step_search_planned(env, batch, near);
+    }
+
+    /// [`Self::step_search`] once a fresh back-off's length is chosen.
+    pub(super) fn step_search_planned(
+        &mut self,
+        env: &LocoView<'_>,
+        batch: &mut TraceBatch,
         mut near: Option<&mut NearRing>,
     ) {
         debug_assert!(
