@@ -1297,7 +1297,9 @@ mod tests {
     use super::*;
     use crate::Profile;
     use crate::sloth::collide::STANCE_MAX_PENETRATION;
-    use crate::sloth::test_util::{preset_sloth, tick, walk_presets, walk_presets_with, xorshift};
+    use crate::sloth::test_util::{
+        self, preset_sloth, tick, walk_presets, walk_presets_with, xorshift,
+    };
     use crate::sloth::{NearRing, TraceBatch};
 
     /// [`beyond_polish`] (the stances' lanes tested before any is polished)
@@ -1433,22 +1435,12 @@ mod tests {
     /// now. Such a fixture holds a `Sloth` as serde writes it: rewrite it
     /// (from a replay of the crowd's state) when `Sloth`'s fields change.
     fn drawn_crowd_step(fixture: &str) -> (f32, bool) {
-        let fx: serde_json::Value = serde_json::from_str(fixture).unwrap();
-        let forest: slothsim_scene::ForestConfig =
-            serde_json::from_value(fx["forest"].clone()).unwrap();
-        let sloth: Sloth = serde_json::from_value(fx["sloth"].clone()).unwrap();
+        let (fx, sloth, env) = test_util::crowd_fixture(fixture);
         let step = &fx["step"];
         let li = step["limb"].as_u64().unwrap() as usize;
         let v = |x: &serde_json::Value| -> Vec3 { serde_json::from_value(x.clone()).unwrap() };
         let (grip, normal) = (v(&step["point"]), v(&step["normal"]));
         let support = SupportId(step["support"].as_u64().unwrap() as u32);
-        let scene = slothsim_scene::generate_forest(&forest).unwrap();
-        let env = crate::LocoEnv::new(
-            crate::LocomotionConfig::profile(Profile::Free),
-            &slothsim_rig::Rig::sloth(),
-            slothsim_scene::TraceScene::new(scene),
-        )
-        .unwrap();
         let view = env.view();
         // The forest is the crowd's: every grip lies on its support.
         for l in &sloth.limbs {
@@ -1594,17 +1586,7 @@ mod tests {
         ];
         let (mut skipped, mut frames) = (0, 0);
         for fixture in fixtures {
-            let fx: serde_json::Value = serde_json::from_str(fixture).unwrap();
-            let forest: slothsim_scene::ForestConfig =
-                serde_json::from_value(fx["forest"].clone()).unwrap();
-            let mut sloth: Sloth = serde_json::from_value(fx["sloth"].clone()).unwrap();
-            let scene = slothsim_scene::generate_forest(&forest).unwrap();
-            let env = crate::LocoEnv::new(
-                crate::LocomotionConfig::profile(Profile::Free),
-                &slothsim_rig::Rig::sloth(),
-                slothsim_scene::TraceScene::new(scene),
-            )
-            .unwrap();
+            let (_, mut sloth, env) = test_util::crowd_fixture(fixture);
             let view = env.view();
             let mut batch = TraceBatch::default();
             let mut near = NearRing::default();
@@ -1633,18 +1615,8 @@ mod tests {
     /// up the trunk from its limb).
     #[test]
     fn trunk_walk_frames_are_the_drawn_ones() {
-        let fx: serde_json::Value =
-            serde_json::from_str(include_str!("testdata/trunk_walk_side.json")).unwrap();
-        let forest: slothsim_scene::ForestConfig =
-            serde_json::from_value(fx["forest"].clone()).unwrap();
-        let sloth: Sloth = serde_json::from_value(fx["sloth"].clone()).unwrap();
-        let scene = slothsim_scene::generate_forest(&forest).unwrap();
-        let env = crate::LocoEnv::new(
-            crate::LocomotionConfig::profile(Profile::Free),
-            &slothsim_rig::Rig::sloth(),
-            slothsim_scene::TraceScene::new(scene),
-        )
-        .unwrap();
+        let (_, sloth, env) =
+            test_util::crowd_fixture(include_str!("testdata/trunk_walk_side.json"));
         let view = env.view();
         let mut compared = 0;
         for li in 0..4 {

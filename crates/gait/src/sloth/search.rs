@@ -1219,11 +1219,10 @@ mod gather_tests {
 
 #[cfg(test)]
 mod dead_stance_tests {
-    use slothsim_rig::Rig;
-    use slothsim_scene::{SupportId, TraceScene};
+    use slothsim_scene::SupportId;
 
-    use super::super::{Grip, Sloth};
-    use crate::{LocoEnv, LocomotionConfig, Profile};
+    use super::super::Grip;
+    use super::super::test_util::crowd_fixture;
 
     /// Issue 24 (the seed-11 crowd, wanderer 1403 at 19.93 s; fixture
     /// `testdata/dead_stance.json`). Stuck (its search gave up, then it
@@ -1236,11 +1235,7 @@ mod dead_stance_tests {
     /// and the wanderer stood there from 19.93 s to the end of the run).
     #[test]
     fn a_stuck_wanderers_step_into_a_dead_stance_is_refused() {
-        let fx: serde_json::Value =
-            serde_json::from_str(include_str!("testdata/dead_stance.json")).unwrap();
-        let forest: slothsim_scene::ForestConfig =
-            serde_json::from_value(fx["forest"].clone()).unwrap();
-        let sloth: Sloth = serde_json::from_value(fx["sloth"].clone()).unwrap();
+        let (fx, sloth, env) = crowd_fixture(include_str!("testdata/dead_stance.json"));
         let step = &fx["step"];
         let v =
             |x: &serde_json::Value| -> glam::Vec3 { serde_json::from_value(x.clone()).unwrap() };
@@ -1252,13 +1247,6 @@ mod dead_stance_tests {
             u: step["u"].as_f64().unwrap() as f32,
             sdir: step["sdir"].as_f64().unwrap() as f32,
         };
-        let scene = slothsim_scene::generate_forest(&forest).unwrap();
-        let env = LocoEnv::new(
-            LocomotionConfig::profile(Profile::Free),
-            &Rig::sloth(),
-            TraceScene::new(scene),
-        )
-        .unwrap();
         let view = env.view();
         for l in &sloth.limbs {
             let s = view.scene().support(l.grip.support);

@@ -16,6 +16,24 @@ pub(crate) fn xorshift(mut s: u64) -> impl FnMut() -> f32 {
     }
 }
 
+/// A crowd fixture (testdata: the forest's config, a serde `Sloth`, and
+/// what the test needs besides): its JSON, the sloth, and the free
+/// profile's environment on that forest.
+pub(crate) fn crowd_fixture(fixture: &str) -> (serde_json::Value, Sloth, LocoEnv) {
+    let fx: serde_json::Value = serde_json::from_str(fixture).unwrap();
+    let forest: slothsim_scene::ForestConfig =
+        serde_json::from_value(fx["forest"].clone()).unwrap();
+    let sloth: Sloth = serde_json::from_value(fx["sloth"].clone()).unwrap();
+    let scene = slothsim_scene::generate_forest(&forest).unwrap();
+    let env = LocoEnv::new(
+        LocomotionConfig::profile(Profile::Free),
+        &Rig::sloth(),
+        TraceScene::new(scene),
+    )
+    .unwrap();
+    (fx, sloth, env)
+}
+
 /// Preset `kind`'s environment (free profile) and a sloth spawned at its
 /// start, walking toward its goal.
 pub(crate) fn preset_sloth(kind: PresetKind) -> (LocoEnv, Sloth) {
