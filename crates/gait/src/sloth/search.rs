@@ -396,11 +396,6 @@ impl Sloth {
             // No step anywhere, even with the others ignored: back the way
             // it came (`retrace.rs`).
             self.start_retrace();
-        } else if self.turns_around_from_sloths(env) {
-            self.start_turn(false);
-            self.turns = self.turns.wrapping_add(1);
-            let (_, n) = self.stall_from.get_or_insert((self.body_pos, 0));
-            *n = n.saturating_add(1);
         } else if self.wander && self.stalled_turns < MAX_STALLED_TURNS {
             self.turn_back();
         } else if self.replan(env) {
@@ -411,27 +406,6 @@ impl Sloth {
                 self.resume_at = Some(self.time + env.cfg.wander_retry_s);
             }
         }
-    }
-
-    /// Wander mode, the search gave up with other sloths in the way ahead
-    /// (cause `crowded`: a step passes once they are ignored), travelling
-    /// head first on a branch it alone holds ([`Sloth::may_turn_around`]):
-    /// it turns its body around at once instead of turning back. A turn back
-    /// walks on tail first, which the limbs mostly cannot reach, so it gave
-    /// up a second time a search's length later (~5.6 s) and only then
-    /// turned around (`boxed_in` in between). Traced in the 5,000 × 300 s
-    /// crowd (seed 10, 240 → 300 s): most `boxed_in` and `crowded` sloths
-    /// met another wanderer head on along one branch (or queued behind one
-    /// that had), both gave up and turned back tail first, and neither made
-    /// a step for the two give-ups (over 11 s). Travelling tail first, the
-    /// turn back is kept: it heads the body the way it then walks, away
-    /// from the sloths in the way. The turn around counts as a turn back of
-    /// the travel ([`Sloth::turns`], [`Sloth::stall_from`]).
-    fn turns_around_from_sloths(&self, env: &LocoView<'_>) -> bool {
-        self.wander
-            && self.dir > 0.0
-            && self.stuck_cause == Some(StuckCause::Crowded)
-            && self.may_turn_around(env, false)
     }
 
     /// This sloth once the given limbs hold the given grips: the body at

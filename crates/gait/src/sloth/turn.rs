@@ -650,56 +650,6 @@ mod tests {
         );
     }
 
-    /// A wanderer travelling head first whose search gives up with another
-    /// sloth in the way ahead (a copy of its own points moved ahead along
-    /// its heading: no limb has a step with it there, one has without it;
-    /// cause `crowded`) turns its body around at once, its travel as it was
-    /// (a turn back would walk on tail first and give up again before the
-    /// turn around). Travelling tail first, and in goal mode, the give-up
-    /// is as before: a wanderer turns back, goal mode does not turn.
-    #[test]
-    fn a_wanderer_blocked_ahead_turns_around_instead_of_back() {
-        let (env, base) = preset_sloth(PresetKind::BranchEnd);
-        let clearance = 0.3;
-        for case in 0..3 {
-            let mut sloth = base;
-            sloth.id = 7;
-            sloth.goal = None;
-            sloth.wander = case != 2;
-            if case == 1 {
-                sloth.dir = -sloth.dir;
-                for l in &mut sloth.limbs {
-                    l.grip.sdir = -l.grip.sdir;
-                }
-            }
-            let travel = sloth.body_rot * Vec3::Z * sloth.dir;
-            let other = crate::crowd_points(env.view().rig, &sloth).map(|p| p + travel * 0.25);
-            let mut grid = crate::CrowdGrid::new(clearance);
-            grid.rebuild(other.iter().map(|&p| (1000, p)));
-            let view = env.view_with(Some(&grid));
-            assert!(
-                (0..4).any(|li| sloth.has_step(&env.view(), li)),
-                "case {case}"
-            );
-            assert!(!(0..4).any(|li| sloth.has_step(&view, li)), "case {case}");
-            let dir = sloth.dir;
-            sloth.give_up(&view);
-            assert_eq!(sloth.stuck_cause, Some(StuckCause::Crowded), "case {case}");
-            match case {
-                0 => {
-                    assert!(sloth.turn.is_some(), "turned back instead");
-                    assert_eq!(sloth.dir, dir);
-                    assert_eq!(sloth.stall_from.map(|(_, n)| n), Some(1));
-                }
-                1 => {
-                    assert!(sloth.turn.is_none(), "tail first: turns back");
-                    assert_eq!(sloth.dir, -dir);
-                }
-                _ => assert!(sloth.turn.is_none(), "goal mode"),
-            }
-        }
-    }
-
     /// A turn that stops (its steps refused [`TURN_MAX_IDLE`] times in a
     /// row) is tried the other way round when a wanderer resumes, from the
     /// heading it has reached (bit for bit), and back again if that stops
