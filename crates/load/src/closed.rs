@@ -148,8 +148,8 @@ fn nan_of(v: glam::Vec3) -> glam::Vec3 {
 /// `v > 0` and finite (false for NaN), written `v <= f64::MAX` rather than
 /// `v < f64::INFINITY` or `v.is_finite()`: the same answer for every `f64`, but LLVM folds
 /// those forms into a floating-point class test that x86 lowers to about sixteen integer
-/// instructions a value, where this one stays two SSE compares (a third of the closed
-/// form's instructions went to such tests; see docs/performance.md).
+/// instructions a value, where this one stays two SSE compares (≈ 190 of the closed
+/// form's ≈ 1,160 instructions a call went to such tests; docs/performance.md).
 #[inline]
 fn positive_finite(v: f64) -> bool {
     (v > 0.0) & (v <= f64::MAX)
