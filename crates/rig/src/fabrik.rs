@@ -15,6 +15,7 @@
 //! 4. The best pose seen is returned; the solve stops after 8 iterations without a
 //!    `min_improvement` gain (projection can make single iterations go uphill).
 
+use crate::unit::UnitOr;
 use glam::{Quat, Vec3, Vec3A};
 
 use crate::ccd::{CcdResult, CcdStatus};
@@ -98,12 +99,12 @@ pub fn solve(
         // Backward: tip to girdle.
         p[4] = target;
         for i in (0..CHAIN_JOINTS).rev() {
-            p[i] = p[i + 1] + (p[i] - p[i + 1]).normalize_or_zero() * chain.lengths[i];
+            p[i] = p[i + 1] + (p[i] - p[i + 1]).unit_or_zero() * chain.lengths[i];
         }
         // Forward: girdle back at its place, out to the tip.
         p[0] = pos[0];
         for i in 0..CHAIN_JOINTS {
-            p[i + 1] = p[i] + (p[i + 1] - p[i]).normalize_or_zero() * chain.lengths[i];
+            p[i + 1] = p[i] + (p[i + 1] - p[i]).unit_or_zero() * chain.lengths[i];
         }
         positions_to_pose(chain, &p, &mut current, params.apply_limits);
         pos = chain.fk_local(&current).0;

@@ -67,6 +67,7 @@ pub mod skeleton;
 pub mod sloth;
 #[cfg(test)]
 mod test_rng;
+pub mod unit;
 
 pub use ccd::{CcdOrder, CcdParams, CcdResult, CcdStatus, solve};
 pub use ccd4::{

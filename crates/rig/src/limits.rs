@@ -12,6 +12,7 @@
 
 use std::ops::{Add, Mul};
 
+use crate::unit::UnitOr;
 use glam::{Quat, Vec3A, Vec4};
 use serde::{Deserialize, Serialize};
 
@@ -456,7 +457,7 @@ pub(crate) fn clamp_ball(
     let twist_len_sq = p * p + q.w * q.w;
     if twist_len_sq < 1e-18 {
         // Pure 180° swing: the twist is undefined; keep a zero twist and the limited swing.
-        let sv = v.normalize_or_zero() * sin_half_swing;
+        let sv = v.unit_or_zero() * sin_half_swing;
         return (Quat::from_xyzw(sv.x, sv.y, sv.z, cos_half_swing), true);
     }
     let len = twist_len_sq.sqrt();
@@ -474,7 +475,7 @@ pub(crate) fn clamp_ball(
     }
     let mut swing = q * hinge_quat(axis, tw, -tp);
     if swing_over {
-        let sv = Vec3A::new(swing.x, swing.y, swing.z).normalize_or_zero() * sin_half_swing;
+        let sv = Vec3A::new(swing.x, swing.y, swing.z).unit_or_zero() * sin_half_swing;
         swing = Quat::from_xyzw(sv.x, sv.y, sv.z, cos_half_swing);
     }
     (swing * hinge_quat(axis, tw_c, tp_c), true)
@@ -550,7 +551,7 @@ mod tests {
             let r_axis = Vec3A::new(rot.0, rot.1, rot.2 + 2.0).normalize();
             let anywhere = quat_axis_angle(r_axis, rot.3);
             let twist = [lo, hi, 0.5 * (lo + hi)][at] + nudge;
-            let perp = axis.cross(Vec3A::X).normalize_or(axis.cross(Vec3A::Y).normalize());
+            let perp = axis.cross(Vec3A::X).unit_or(axis.cross(Vec3A::Y).normalize());
             let near = quat_axis_angle(perp, off) * quat_axis_angle(axis, twist);
             for lim in &limits {
                 for q in [anywhere, near, -near] {

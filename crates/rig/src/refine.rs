@@ -15,6 +15,7 @@
 //! it reduces the error (so the error never grows and a settled pose is a fixed point);
 //! otherwise λ grows, and the stage stops when λ is huge (no descent left).
 
+use crate::unit::UnitOr;
 use glam::{Mat3, Quat, Vec3, Vec3A};
 
 use crate::chain::{CHAIN_JOINTS, ChainPose, LimbChain};
@@ -83,7 +84,7 @@ impl Coords {
                 let p = v.dot(axis);
                 let len = (p * p + q.w * q.w).sqrt();
                 if len < 1e-9 {
-                    let s = v.normalize_or_zero() * std::f32::consts::PI;
+                    let s = v.unit_or_zero() * std::f32::consts::PI;
                     return [s.dot(b1), s.dot(b2), 0.0];
                 }
                 let t = 2.0 * p.atan2(q.w);

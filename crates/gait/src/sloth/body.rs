@@ -6,6 +6,7 @@
 
 use glam::{Quat, Vec3};
 use slothsim_rig::Limb;
+use slothsim_rig::unit::UnitOr;
 use slothsim_scene::{SupportId, SupportKind};
 
 use crate::path::project;
@@ -100,11 +101,11 @@ const FORMULA6_SUM_MIN: f32 = 0.5;
 
 /// A side of formula 6 (`v`: hind → fore grip): its direction, scaled by its
 /// length below [`FORMULA6_SIDE_M`] (so continuous through two grips on one
-/// point). At or above it, exactly `v.normalize_or_zero()`.
+/// point). At or above it, exactly `v.unit_or_zero()`.
 fn formula6_side(v: Vec3) -> Vec3 {
     let len = v.length();
     if len >= FORMULA6_SIDE_M {
-        v.normalize_or_zero()
+        v.unit_or_zero()
     } else if len.is_finite() {
         v / FORMULA6_SIDE_M
     } else {
@@ -115,13 +116,13 @@ fn formula6_side(v: Vec3) -> Vec3 {
 /// Formula 6's heading from the sum of its sides, `now` (the body's heading)
 /// where they nearly cancel ([`FORMULA6_SUM_MIN`]): continuous in the sum
 /// except where it points back against `now` at half that length. At or
-/// above it, exactly `sum.normalize_or(now)`.
+/// above it, exactly `sum.unit_or(now)`.
 fn formula6_heading(sum: Vec3, now: Vec3) -> Vec3 {
     let len = sum.length();
     if len >= FORMULA6_SUM_MIN {
-        sum.normalize_or(now)
+        sum.unit_or(now)
     } else {
-        (sum + now * (FORMULA6_SUM_MIN - len)).normalize_or(now)
+        (sum + now * (FORMULA6_SUM_MIN - len)).unit_or(now)
     }
 }
 
@@ -181,7 +182,7 @@ pub(super) fn swing_lift_dir(from_n: Vec3, to_n: Vec3, fallback: Vec3) -> Vec3 {
     // a support) their mean says little: it leans toward `fallback` (away
     // from the body's supports), so the arc does not swing on a rounding.
     let sum = from_n + to_n;
-    (sum + fallback * (1.0 - sum.length()).max(0.0)).normalize_or(fallback)
+    (sum + fallback * (1.0 - sum.length()).max(0.0)).unit_or(fallback)
 }
 
 /// [`swing_point`] with its lift direction given ([`swing_lift_dir`]).
@@ -287,8 +288,7 @@ pub(super) fn support_frame(
     match kind {
         SupportKind::Branch => {
             let f = tangent_travel;
-            let up =
-                (Vec3::Y - f * f.dot(Vec3::Y)).normalize_or(Vec3::Z.cross(f).normalize_or(Vec3::X));
+            let up = (Vec3::Y - f * f.dot(Vec3::Y)).unit_or(Vec3::Z.cross(f).unit_or(Vec3::X));
             (f, up)
         }
         SupportKind::Trunk => {
@@ -297,7 +297,7 @@ pub(super) fn support_frame(
             } else {
                 -axis_tangent
             };
-            let up = -(body_side - f * f.dot(body_side)).normalize_or(f.any_orthonormal_vector());
+            let up = -(body_side - f * f.dot(body_side)).unit_or(f.any_orthonormal_vector());
             (f, up)
         }
     }
@@ -344,8 +344,8 @@ fn paws_mean(t: &[Vec3; 4]) -> Vec3 {
 }
 
 pub(super) fn rotation_from(f: Vec3, up: Vec3) -> Quat {
-    let z = f.normalize_or(Vec3::Z);
-    let y = (up - z * z.dot(up)).normalize_or(z.any_orthonormal_vector());
+    let z = f.unit_or(Vec3::Z);
+    let y = (up - z * z.dot(up)).unit_or(z.any_orthonormal_vector());
     let x = y.cross(z);
     Quat::from_mat3(&glam::Mat3::from_cols(x, y, z)).normalize()
 }
@@ -521,7 +521,7 @@ impl Sloth {
         let t = self.targets();
         // Across the heading, horizontally; less as the heading steepens.
         let across = self.formula6_fwd(&t).cross(Vec3::Y);
-        let (lateral, level) = (across.normalize_or_zero(), across.length().min(1.0));
+        let (lateral, level) = (across.unit_or_zero(), across.length().min(1.0));
         if lateral == Vec3::ZERO {
             return Vec3::ZERO;
         }
@@ -674,12 +674,12 @@ impl Sloth {
                 BodySide::Body => self.body_pos - a.point,
                 BodySide::Grips => mean - a.point,
             };
-            -(body_side - fwd * fwd.dot(body_side)).normalize_or(self.body_rot * Vec3::Y * -1.0)
+            -(body_side - fwd * fwd.dot(body_side)).unit_or(self.body_rot * Vec3::Y * -1.0)
         } else {
             // On branches: below them, clear of the trunks they meet.
             self.hang_up(fwd, self.hang_roll(env, fwd, mean, offset.metres))
         };
-        let up = (up - fwd * fwd.dot(up)).normalize_or(self.body_rot * Vec3::Y);
+        let up = (up - fwd * fwd.dot(up)).unit_or(self.body_rot * Vec3::Y);
         (fwd, up)
     }
 
@@ -760,8 +760,8 @@ impl Sloth {
             _ => return 0.0,
         };
         let scene = env.scene();
-        let up0 = (Vec3::Y - fwd * fwd.dot(Vec3::Y)).normalize_or(Vec3::Y);
-        let lateral = fwd.cross(Vec3::Y).normalize_or_zero();
+        let up0 = (Vec3::Y - fwd * fwd.dot(Vec3::Y)).unit_or(Vec3::Y);
+        let lateral = fwd.cross(Vec3::Y).unit_or_zero();
         let own_side = if lateral.dot(self.hang_side) >= 0.0 {
             1.0
         } else {
@@ -794,14 +794,14 @@ impl Sloth {
                 let across = self.approach_branch(env, trunk).map_or(1.0, |b| {
                     project(scene.support(b), mean)
                         .tangent
-                        .dot(radial.normalize_or_zero())
+                        .dot(radial.unit_or_zero())
                         .abs()
                 });
                 ((APPROACH_ALONG_NONE_SIN - across)
                     / (APPROACH_ALONG_NONE_SIN - APPROACH_ALONG_FULL_SIN))
                     .clamp(0.0, 1.0)
             }
-            None => (fwd.dot(radial.normalize_or_zero()) / HANG_OUT_COS).clamp(0.0, 1.0),
+            None => (fwd.dot(radial.unit_or_zero()) / HANG_OUT_COS).clamp(0.0, 1.0),
         };
         let need = heading_out * ((depth + clearance) / clearance).clamp(0.0, 1.0);
         // Away from a trunk off to a side of the branch; toward the body's
@@ -819,7 +819,7 @@ impl Sloth {
             return need * own_side;
         }
         let trunk_side =
-            (lateral.dot((mean - a.point).normalize_or_zero()) / HANG_TRUNK_SIDE).clamp(-1.0, 1.0);
+            (lateral.dot((mean - a.point).unit_or_zero()) / HANG_TRUNK_SIDE).clamp(-1.0, 1.0);
         need * (trunk_side + (1.0 - trunk_side.abs()) * own_side)
     }
 
@@ -878,7 +878,7 @@ impl Sloth {
         let mean = paws_mean(&t);
         let metres = body_offset(env, self.trunk_weights(env)).metres;
         let roll = self.hang_roll(env, fwd, mean, metres);
-        (roll != 0.0).then(|| fwd.cross(Vec3::Y).normalize_or_zero() * roll.signum())
+        (roll != 0.0).then(|| fwd.cross(Vec3::Y).unit_or_zero() * roll.signum())
     }
 
     /// At the start of a step search with no other limb in a step (and at
@@ -898,7 +898,7 @@ impl Sloth {
             return;
         }
         self.hang_trunk = None;
-        let lateral = fwd.cross(Vec3::Y).normalize_or_zero();
+        let lateral = fwd.cross(Vec3::Y).unit_or_zero();
         self.hang_side = if lateral.dot(self.body_pos - mean) < -HANG_SIDE_TIE {
             -lateral
         } else {
@@ -937,9 +937,9 @@ impl Sloth {
         let hips = pos + rot * env.rig.hips_ms;
         let a = project(env.scene().support(trunk), hips);
         let radial = hips - a.point;
-        let out = (radial - a.tangent * a.tangent.dot(radial)).normalize_or_zero();
-        let from = (hips - shoulders).normalize_or_zero();
-        let to = (hips + out * back_m - shoulders).normalize_or_zero();
+        let out = (radial - a.tangent * a.tangent.dot(radial)).unit_or_zero();
+        let from = (hips - shoulders).unit_or_zero();
+        let to = (hips + out * back_m - shoulders).unit_or_zero();
         if from == Vec3::ZERO || to == Vec3::ZERO {
             return (pos, rot);
         }
@@ -997,8 +997,7 @@ mod tests {
     #[test]
     fn body_continuous_through_coinciding_grips() {
         let mut rnd = xorshift(0xf06);
-        let mut unit =
-            move || Vec3::new(rnd() - 0.5, rnd() - 0.5, rnd() - 0.5).normalize_or(Vec3::X);
+        let mut unit = move || Vec3::new(rnd() - 0.5, rnd() - 0.5, rnd() - 0.5).unit_or(Vec3::X);
         let pairs = [
             (Limb::LH, Limb::LF),
             (Limb::LF, Limb::LH),
@@ -1014,8 +1013,8 @@ mod tests {
             let base = sloth.limbs.map(|l| l.grip.point);
             let (lf, rf, lh, rh) = (base[0], base[1], base[2], base[3]);
             if (lf - lh).length() >= FORMULA6_SIDE_M && (rf - rh).length() >= FORMULA6_SIDE_M {
-                let old = ((rf - rh).normalize_or_zero() + (lf - lh).normalize_or_zero())
-                    .normalize_or(sloth.body_rot * Vec3::Z);
+                let old = ((rf - rh).unit_or_zero() + (lf - lh).unit_or_zero())
+                    .unit_or(sloth.body_rot * Vec3::Z);
                 assert_eq!(
                     sloth.formula6_fwd(&base),
                     old,

@@ -6,6 +6,7 @@
 use glam::{Quat, Vec3};
 use serde::{Deserialize, Serialize};
 use slothsim_rig::Limb;
+use slothsim_rig::unit::UnitOr;
 use slothsim_scene::{SupportId, SupportKind};
 
 use crate::path::project;
@@ -208,7 +209,7 @@ impl Sloth {
         let fallback = a.tangent.any_orthonormal_vector();
         let bp = project(scene.support(branch), self.body_pos);
         let away = bp.point - a.point;
-        let away = (away - a.tangent * a.tangent.dot(away)).normalize_or(fallback);
+        let away = (away - a.tangent * a.tangent.dot(away)).unit_or(fallback);
         // The same transfer started again (its first limb searches anew):
         // the stances it took stand.
         let (dir, stance_keys, stance_visits, stance_count) = match self.transfer {
@@ -219,7 +220,7 @@ impl Sloth {
         };
         let side = if onto_trunk {
             let b = bp.tangent;
-            let n = a.tangent.cross(b).normalize_or(fallback);
+            let n = a.tangent.cross(b).unit_or(fallback);
             // Toward the side of the limb that starts the transfer: it takes
             // the trunk next to the branch, its pair reaches around.
             let model_side = if Limb::ALL[li].is_left() {
@@ -232,7 +233,7 @@ impl Sloth {
             } else {
                 -n
             };
-            let n2 = (nn - a.tangent * a.tangent.dot(nn)).normalize_or(fallback);
+            let n2 = (nn - a.tangent * a.tangent.dot(nn)).unit_or(fallback);
             // Tail first (`Sloth::descends_tail_first`) the hips come to the
             // trunk next to the branch's root and the hind limbs reach around
             // from there: as far around as trunk → branch climbs up to the
@@ -243,9 +244,9 @@ impl Sloth {
             } else {
                 TRANSFER_SIDE_ANGLE
             };
-            (away * angle.cos() + n2 * angle.sin()).normalize_or(fallback)
+            (away * angle.cos() + n2 * angle.sin()).unit_or(fallback)
         } else {
-            off_axis.normalize_or(fallback)
+            off_axis.unit_or(fallback)
         };
         // Head first onto a trunk, of that side and its mirror about the
         // branch's plane, the one from which the farther fore limb reaches
@@ -269,7 +270,7 @@ impl Sloth {
             side_turned: 0.0,
         };
         let side = if onto_trunk && dir > 0.0 {
-            let mirror = (2.0 * away * away.dot(side) - side).normalize_or(side);
+            let mirror = (2.0 * away * away.dot(side) - side).unit_or(side);
             let longest = |side: Vec3| {
                 let probe = Sloth {
                     transfer: Some(transfer(side)),
@@ -704,7 +705,7 @@ mod tests {
         let (mut s, mut g) = (preset.start, preset.goal);
         let b = preset.scene.support(s.support);
         let along = b.nodes[b.nodes.len() - 1] - b.nodes[0];
-        let away = Vec3::new(along.x, 0.0, along.z).normalize_or(Vec3::X);
+        let away = Vec3::new(along.x, 0.0, along.z).unit_or(Vec3::X);
         let angle = 60f32.to_radians();
         (s.support, g.support) = (g.support, s.support);
         std::mem::swap(&mut s.position, &mut g.point);
@@ -806,7 +807,7 @@ mod head_up_tests {
             let (mut s, g) = (preset.start, preset.goal);
             let b = preset.scene.support(s.support);
             let along = b.nodes[b.nodes.len() - 1] - b.nodes[0];
-            let away = Vec3::new(along.x, 0.0, along.z).normalize_or(Vec3::X);
+            let away = Vec3::new(along.x, 0.0, along.z).unit_or(Vec3::X);
             let side = 60f32.to_radians();
             s.support = g.support;
             s.position = g.point;

@@ -18,6 +18,7 @@ use std::f32::consts::PI;
 use glam::{Quat, Vec3};
 use serde::{Deserialize, Serialize};
 use slothsim_rig::Limb;
+use slothsim_rig::unit::UnitOr;
 use slothsim_scene::{Support, SupportId, SupportKind};
 
 use crate::path::{axis_at, project, surface_gap};
@@ -208,7 +209,7 @@ impl Sloth {
         let t = self.limb_map(|l| l.target);
         // The frame the body has now (formula 6, below the branch).
         let fwd0 = self.formula6_fwd(&t);
-        let up = (Vec3::Y - fwd0 * fwd0.dot(Vec3::Y)).normalize_or(self.body_rot * Vec3::Y);
+        let up = (Vec3::Y - fwd0 * fwd0.dot(Vec3::Y)).unit_or(self.body_rot * Vec3::Y);
         for l in &mut self.limbs {
             l.fallback = None;
             l.due = false;
@@ -253,12 +254,12 @@ impl Sloth {
         let f = tr.fwd(tr.angle + (tr.to - tr.angle) * e);
         let (f, up) = if tr.handover {
             let f6 = self.formula6_fwd(landed);
-            let f = (f * (1.0 - e) + f6 * e).normalize_or(f6);
+            let f = (f * (1.0 - e) + f6 * e).unit_or(f6);
             (f, tr.up * (1.0 - e) + Vec3::Y * e)
         } else {
             (f, tr.up)
         };
-        let up = (up - f * f.dot(up)).normalize_or(tr.up);
+        let up = (up - f * f.dot(up)).unit_or(tr.up);
         (f, up)
     }
 
@@ -483,10 +484,10 @@ impl Sloth {
                 // it at `ahead`, and between.
                 let out_to = |root: Vec3| {
                     let radial = root - a.point;
-                    (radial - a.tangent * a.tangent.dot(radial)).normalize_or(-tr.up)
+                    (radial - a.tangent * a.tangent.dot(radial)).unit_or(-tr.up)
                 };
                 let (o0, o1) = (out_to(roots[0]), out_to(roots[1]));
-                let mid = (o0 + o1).normalize_or(o0);
+                let mid = (o0 + o1).unit_or(o0);
                 // First the limb's own side at the step's end heading, where the
                 // walk grips it ([`grip_out`]), while that heading is within 60°
                 // of the branch's axis (across it, the side lies along the axis):
