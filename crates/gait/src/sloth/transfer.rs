@@ -807,7 +807,7 @@ mod head_up_tests {
             let (mut s, g) = (preset.start, preset.goal);
             let b = preset.scene.support(s.support);
             let along = b.nodes[b.nodes.len() - 1] - b.nodes[0];
-            let away = Vec3::new(along.x, 0.0, along.z).unit_or(Vec3::X);
+            let away = Vec3::new(along.x, 0.0, along.z).normalize_or(Vec3::X);
             let side = 60f32.to_radians();
             s.support = g.support;
             s.position = g.point;
