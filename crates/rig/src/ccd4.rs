@@ -306,7 +306,7 @@ pub fn solve8_prepared_tolerances_unless(
     stop: [f32; 8],
 ) -> Option<[CcdResult; 8]> {
     debug_assert!(
-        (0..8).all(|i| !(stop[i] < tolerances[i])),
+        (0..8).all(|i| stop[i].partial_cmp(&tolerances[i]) != Some(std::cmp::Ordering::Less)),
         "a stop below its lane's tolerance"
     );
     #[cfg(target_arch = "x86_64")]
