@@ -643,13 +643,31 @@ impl Sloth {
             && self.transfer.is_none()
             && -cur_lead > cfg.min_step_m
             && self.approach_trunk(env).is_some();
-        let min_lead =
-            if cur_lead < -(cfg.max_step_m - cfg.min_step_m) || girdle_locked || tail_first_closing
-            {
-                cur_lead + cfg.min_step_m
-            } else {
-                0.0
-            };
+        // Goal mode, a sloth whose back-offs without it would not arrive
+        // (`Sloth::close_up`, chosen by the playouts), no transfer under
+        // way, the search failing: a hind limb behind its partner by more
+        // than a minimum step may close up part way too (trunk → branch at
+        // 0.08 m, around 143.9° and 153.2°: on the branch RH 0.13–0.21 m
+        // behind LH, its level grips out of reach or too near RF, every
+        // other limb's step barred, six back-offs to the time limit). For
+        // every goal-mode sloth, or after any re-plan, the rule changed
+        // transfers the back-offs alone carry through (to-branch 0.15 m
+        // 153.354°, 0.08 m 146.4577°).
+        let failing_closing = self.close_up
+            && !self.wander
+            && !limb.is_fore()
+            && self.transfer.is_none()
+            && self.failed_searches > 0
+            && -cur_lead > cfg.min_step_m;
+        let min_lead = if cur_lead < -(cfg.max_step_m - cfg.min_step_m)
+            || girdle_locked
+            || tail_first_closing
+            || failing_closing
+        {
+            cur_lead + cfg.min_step_m
+        } else {
+            0.0
+        };
         match p.side_step {
             // Side-stepping, the girdle's limbs keep about level on the axis
             // (around it, the pair is always apart by the grip angle).

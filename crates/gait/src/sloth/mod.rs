@@ -348,6 +348,13 @@ pub struct Sloth {
     /// and re-planned: the hind limbs leave the trunk one at a time.
     #[serde(default)]
     pub hind_single: bool,
+    /// Goal mode: a hind limb behind its girdle partner by more than a
+    /// minimum step may close up part way while the search is failing
+    /// (`Sloth::keeps_leg_order`). Set by a back-off's playouts when no
+    /// back-off arrives without it (`Sloth::plan_backoff`), then kept.
+    /// Checkpointed (format 30).
+    #[serde(default)]
+    pub close_up: bool,
     /// Goal mode: step searches the lone fore limb across a locked transfer
     /// onto a trunk has started (see `Sloth::own_search`), kept across
     /// transfers ended and begun again, cleared when a transfer is

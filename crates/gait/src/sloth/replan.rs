@@ -103,7 +103,10 @@ impl Sloth {
     /// none, the default one cycle. The same back-off every time sent a
     /// circling transfer back into the same circle (branch_trunk to-trunk
     /// 0.15 m 148.6503°: three give-ups 20 s apart, each with the same
-    /// one-cycle back-off, to the time limit).
+    /// one-cycle back-off, to the time limit). When no length arrives, the
+    /// lengths are played out again with [`Sloth::close_up`] set (a hind
+    /// limb may close up part way to its partner); the first that arrives
+    /// sets it for good.
     pub(super) fn plan_backoff(
         &mut self,
         env: &LocoView<'_>,
@@ -123,11 +126,23 @@ impl Sloth {
             });
             s
         };
-        let k = BACKOFF_CHOICES
-            .into_iter()
-            .find(|&k| with(k).arrives_within(env, batch.clone(), near.copied(), PLAYOUT_S))
-            .unwrap_or(BACKOFF_CYCLES);
+        // Without closing up first (as before it existed), then with it.
+        let close_ups: &[bool] = if self.close_up {
+            &[true]
+        } else {
+            &[false, true]
+        };
+        let chosen = close_ups
+            .iter()
+            .flat_map(|&c| BACKOFF_CHOICES.map(|k| (c, k)))
+            .find(|&(c, k)| {
+                let mut s = with(k);
+                s.close_up = c;
+                s.arrives_within(env, batch.clone(), near.copied(), PLAYOUT_S)
+            });
+        let (close_up, k) = chosen.unwrap_or((self.close_up, BACKOFF_CYCLES));
         *self = with(k);
+        self.close_up = close_up;
     }
 
     /// Whether this sloth, played out alone for `horizon_s` (whole frames,

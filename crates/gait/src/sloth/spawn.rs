@@ -123,6 +123,7 @@ impl Sloth {
             backoff: None,
             replans: 0,
             hind_single: false,
+            close_up: false,
             lone_fore_searches: 0,
             turn: None,
             stuck_cause: None,
