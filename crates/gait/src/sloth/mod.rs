@@ -30,6 +30,7 @@ mod checks;
 mod clock;
 mod collide;
 mod livelock;
+mod meet;
 mod observe;
 mod replan;
 mod retrace;
