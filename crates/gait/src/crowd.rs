@@ -15,12 +15,6 @@ use glam::{IVec3, Vec3};
 /// Points each sloth contributes: body centre, hips, head and its four grips.
 pub const POINTS_PER_SLOTH: usize = 7;
 
-/// A sloth's tag ([`CrowdGrid::set_tags`]): it travels head first.
-pub const TAG_HEAD_FIRST: u8 = 1;
-
-/// A sloth's tag ([`CrowdGrid::set_tags`]): it is turning its body around.
-pub const TAG_TURNING: u8 = 2;
-
 /// Partitions of the counting sort: a point's partition is the low
 /// `PART_BITS` bits of its cell hash, and each partition is sorted on its own,
 /// so the rebuild runs as parallel jobs (see [`CrowdGrid::rebuild_hashed_with`]).
@@ -121,9 +115,6 @@ pub struct CrowdGrid {
     far: Vec<bool>,
     /// Full rebuilds so far.
     rebuilds: u64,
-    /// Per group: what the others see of its sloth besides its points
-    /// ([`CrowdGrid::set_tags`]; 0 where never set).
-    tags: Vec<u8>,
     /// Scratch: the points grouped by partition, in sloth order within each.
     staging: Vec<Staged>,
     /// Scratch: points per partition counted by each job.
@@ -580,7 +571,7 @@ impl CrowdGrid {
 
     /// Whether a point of a sloth other than `me` lies within the clearance of `p`.
     pub fn blocked(&self, me: u32, p: Vec3) -> bool {
-        self.any_within(me, p, |_, _, _| true)
+        self.any_within(me, p, |_, _| true)
     }
 
     /// [`CrowdGrid::blocked`] for a grip moving from `from` to `p`: only
@@ -592,61 +583,14 @@ impl CrowdGrid {
         if !from.is_finite() {
             return self.blocked(me, p);
         }
-        self.any_within(me, p, |_, q, d2| d2 <= q.distance_squared(from))
+        self.any_within(me, p, |q, d2| d2 <= q.distance_squared(from))
     }
 
-    /// The first sloth other than `me` (in the grid's order: bucketed points,
-    /// then those held apart) with a point within the clearance of `p` for
-    /// which `pred(owner)` holds. A query for rare events (a wanderer's failed
-    /// search, `Sloth::head_on`): `pred` may be called for each such point.
-    pub fn find_owner_near(&self, me: u32, p: Vec3, pred: impl Fn(u32) -> bool) -> Option<u32> {
-        let found = std::cell::Cell::new(None);
-        let pred = &pred;
-        let found_ref = &found;
-        self.any_within(me, p, move |o, _, _| {
-            let hit = pred(o);
-            if hit {
-                found_ref.set(Some(o));
-            }
-            hit
-        });
-        found.get()
-    }
-
-    /// Sets each group's tag: `tag(i)` of the `i`-th group (the grid's
-    /// order, that of its last update), one byte a sloth of what the others
-    /// see besides its points ([`crate::crowd_tag`]: its travel, whether it
-    /// turns around). Set after each update; read by [`CrowdGrid::points_of`].
-    pub fn set_tags(&mut self, tag: impl Fn(usize) -> u8) {
-        let n = self.owners.len();
-        self.tags.clear();
-        self.tags.extend((0..n).map(tag));
-    }
-
-    /// The points `owner` holds now ([`POINTS_PER_SLOTH`] of a crowd:
-    /// body centre, hips, head, then its four grips, as the grid was given
-    /// them) and its tag ([`CrowdGrid::set_tags`]; 0 where never set), if
-    /// the grid holds that owner.
-    pub fn points_of(&self, owner: u32) -> Option<(&[Vec3], u8)> {
-        let per = self.per_group;
-        if per == 0 {
-            return None;
-        }
-        // The grid is given its sloths in id order; any other order is
-        // searched point by point.
-        let i = match self.owners.binary_search(&owner) {
-            Ok(i) => i,
-            Err(_) => self.owners.iter().position(|&o| o == owner)?,
-        };
-        let tag = self.tags.get(i).copied().unwrap_or(0);
-        Some((self.points.get(i * per..(i + 1) * per)?, tag))
-    }
-
-    /// Whether a point `q` of a sloth `o` other than `me` within the
-    /// clearance of `p` has `counts(o, q, |q − p|²)`: the points found
-    /// through their anchors' buckets, then those held apart.
+    /// Whether a point `q` of a sloth other than `me` within the clearance
+    /// of `p` has `counts(q, |q − p|²)`: the points found through their
+    /// anchors' buckets, then those held apart.
     #[inline]
-    fn any_within(&self, me: u32, p: Vec3, counts: impl Fn(u32, Vec3, f32) -> bool + Copy) -> bool {
+    fn any_within(&self, me: u32, p: Vec3, counts: impl Fn(Vec3, f32) -> bool + Copy) -> bool {
         if !p.is_finite() {
             return false;
         }
@@ -662,7 +606,7 @@ impl CrowdGrid {
     /// least `dx²` as rounded); the window is 1 % (and a rounding of `p.x`)
     /// wider.
     #[inline]
-    fn any_moved(&self, me: u32, p: Vec3, counts: impl Fn(u32, Vec3, f32) -> bool) -> bool {
+    fn any_moved(&self, me: u32, p: Vec3, counts: impl Fn(Vec3, f32) -> bool) -> bool {
         if self.moved.is_empty() {
             return false;
         }
@@ -676,7 +620,7 @@ impl CrowdGrid {
             }
             if owner != me {
                 let d2 = q.distance_squared(p);
-                if d2 < r2 && counts(owner, q, d2) {
+                if d2 < r2 && counts(q, d2) {
                     return true;
                 }
             }
@@ -686,7 +630,7 @@ impl CrowdGrid {
 
     /// [`CrowdGrid::any_within`] of the bucketed points alone (`p` finite).
     #[inline]
-    fn any_held(&self, me: u32, p: Vec3, counts: impl Fn(u32, Vec3, f32) -> bool) -> bool {
+    fn any_held(&self, me: u32, p: Vec3, counts: impl Fn(Vec3, f32) -> bool) -> bool {
         let inv = 1.0 / self.cell;
         let c = cell_of(p, inv);
         let r2 = self.clearance * self.clearance;
@@ -709,7 +653,7 @@ impl CrowdGrid {
                             // A point not finite now fails the distance test.
                             let q = self.points[i as usize];
                             let d2 = q.distance_squared(p);
-                            if d2 < r2 && counts(owner, q, d2) {
+                            if d2 < r2 && counts(q, d2) {
                                 return true;
                             }
                         }
@@ -999,41 +943,6 @@ mod tests {
         pts.pop();
         update(&mut g, &pts);
         assert_eq!(g.rebuilds(), 3);
-    }
-
-    /// [`CrowdGrid::points_of`] hands back an owner's current points (also
-    /// one held apart past the slack), and [`CrowdGrid::find_owner_near`]
-    /// the first other owner within the clearance that its predicate
-    /// accepts: bucketed or held apart, never `me`, none where it accepts
-    /// none.
-    #[test]
-    fn owners_near_a_point_and_their_points() {
-        let mut g = CrowdGrid::with_slack(0.3, 0.05);
-        let mut pts: Vec<[Vec3; 7]> = (0..20)
-            .map(|i| [(); 7].map(|_| Vec3::new(i as f32 * 1.0, 0.0, 0.0)))
-            .collect();
-        let update = |g: &mut CrowdGrid, pts: &[[Vec3; 7]]| {
-            let hashed: Vec<[HashedPoint; 7]> =
-                pts.iter().map(|ps| ps.map(|p| g.hashed(p))).collect();
-            g.update_hashed_with(pts.len(), |i| (i as u32 * 2, &hashed[i]), &Serial);
-        };
-        update(&mut g, &pts);
-        pts[3][6] = Vec3::new(5.2, 0.0, 0.0);
-        update(&mut g, &pts);
-        assert_eq!((g.rebuilds(), g.moved_len()), (1, 1));
-        assert_eq!(g.points_of(6), Some((&pts[3][..], 0)));
-        g.set_tags(|i| i as u8 + 1);
-        assert_eq!(g.points_of(6), Some((&pts[3][..], 4)));
-        assert_eq!(g.points_of(7), None);
-        let near5 = Vec3::new(5.1, 0.0, 0.0);
-        assert_eq!(g.find_owner_near(99, near5, |_| true), Some(10));
-        assert_eq!(g.find_owner_near(99, near5, |o| o == 6), Some(6));
-        assert_eq!(g.find_owner_near(10, near5, |o| o != 6), None);
-        assert_eq!(g.find_owner_near(99, near5, |_| false), None);
-        assert_eq!(
-            g.find_owner_near(99, Vec3::new(0.5, 0.0, 0.0), |_| true),
-            None
-        );
     }
 
     proptest! {

@@ -149,21 +149,6 @@ impl<'a> LocoView<'a> {
     }
 }
 
-/// What the others see of a sloth besides its points ([`CrowdGrid::set_tags`]):
-/// [`crate::crowd::TAG_HEAD_FIRST`] where it travels head first,
-/// [`crate::crowd::TAG_TURNING`] while it turns its body around (not
-/// stopped).
-pub fn crowd_tag(s: &Sloth) -> u8 {
-    let mut tag = 0;
-    if s.dir > 0.0 {
-        tag |= crate::crowd::TAG_HEAD_FIRST;
-    }
-    if s.turn.is_some() && s.status == crate::sloth::Status::Moving {
-        tag |= crate::crowd::TAG_TURNING;
-    }
-    tag
-}
-
 /// The points a sloth occupies for the others (what [`CrowdGrid`] holds):
 /// body centre, hips, head and the four grips.
 pub fn crowd_points(rig: &RigData, s: &Sloth) -> [Vec3; 7] {

@@ -19,7 +19,7 @@ pub mod sloth;
 
 pub use config::{ConfigError, LocomotionConfig, Profile, Sequence};
 pub use crowd::{CrowdGrid, HashedPoint, Job, Jobs, Serial};
-pub use env::{IK_TOLERANCE_M, LocoEnv, LocoView, crowd_points, crowd_tag};
+pub use env::{IK_TOLERANCE_M, LocoEnv, LocoView, crowd_points};
 pub use load::{LimbLoads, LoadTrack, load_params};
 pub use path::{Adjacency, AxisPoint, axis_at, project, surface_gap};
 pub use rigdata::RigData;

@@ -343,7 +343,6 @@ fn grid_rebuild(
                 |i| (ids[i].0, &pts[i].0, pts[i].2),
                 &PoolJobs,
             );
-            crowd.grid.set_tags(|i| pts[i].3);
         } else {
             // Several tables (or none): the points gathered in query order first.
             let all: Vec<(u32, &[HashedPoint; 7], bool)> =
@@ -351,8 +350,6 @@ fn grid_rebuild(
             crowd
                 .grid
                 .update_hashed_kept_with(all.len(), |i| all[i], &PoolJobs);
-            let tags: Vec<u8> = q.iter().map(|(_, pts)| pts.3).collect();
-            crowd.grid.set_tags(|i| tags[i]);
         }
     }
     clock.frame += 1;

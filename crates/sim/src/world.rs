@@ -3,7 +3,6 @@
 use bevy_ecs::prelude::*;
 // Re-exported so `crate::world::crowd_points` (crowd.rs) keeps working; it lives in gait.
 pub use slothsim_gait::crowd_points;
-use slothsim_gait::crowd_tag;
 use slothsim_gait::{
     BodyMemo, CrowdGrid, HashedPoint, LimbLoads, LocoEnv, LocoView, LocomotionConfig, NearRing,
     Sloth, SolveMemo, SpawnHint, TraceBatch,
@@ -71,10 +70,9 @@ impl AsMut<SolveMemo> for CcdMemo {
 /// were made from (`None`: not made yet); and whether the last
 /// [`CrowdPoints::update`] kept them (the same bits as the update before:
 /// the neighbour grid's update then neither copies nor tests them again,
-/// `CrowdGrid::update_hashed_kept_with`); and the sloth's tag
-/// ([`slothsim_gait::crowd_tag`], `CrowdGrid::set_tags`).
+/// `CrowdGrid::update_hashed_kept_with`).
 #[derive(Component, Clone, Copy, Debug, Default)]
-pub struct CrowdPoints(pub [HashedPoint; 7], pub Option<[u32; 4]>, pub bool, pub u8);
+pub struct CrowdPoints(pub [HashedPoint; 7], pub Option<[u32; 4]>, pub bool);
 
 impl CrowdPoints {
     /// Makes `s`'s points hashed for `g`, unless these are they already: the
@@ -86,7 +84,6 @@ impl CrowdPoints {
     /// points were made for did (one grid, one cell size, a run).
     #[inline]
     pub fn update(&mut self, rig: &slothsim_gait::RigData, s: &Sloth, g: &CrowdGrid) {
-        self.3 = crowd_tag(s);
         let bits = |v: glam::Vec3| v.to_array().map(f32::to_bits);
         let rot = s.body_rot.to_array().map(f32::to_bits);
         let kept = self.1 == Some(rot)
@@ -173,12 +170,8 @@ impl CrowdNeighbours {
         sloths: impl Iterator<Item = (u32, &'a Sloth)>,
     ) {
         let rig = &loco.rig;
-        let mut tags = Vec::new();
-        self.grid.rebuild_groups(sloths.map(|(id, s)| {
-            tags.push(crowd_tag(s));
-            (id, crowd_points(rig, s))
-        }));
-        self.grid.set_tags(|i| tags[i]);
+        self.grid
+            .rebuild_groups(sloths.map(|(id, s)| (id, crowd_points(rig, s))));
     }
 }
 

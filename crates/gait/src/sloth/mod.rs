@@ -30,7 +30,6 @@ mod checks;
 mod clock;
 mod collide;
 mod livelock;
-mod meet;
 mod observe;
 mod replan;
 mod retrace;

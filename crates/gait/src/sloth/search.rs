@@ -12,7 +12,6 @@ use crate::path::project;
 
 use super::body::{BodySide, body_offset};
 use super::candidate::CandidateAt;
-use super::meet::HeadOn;
 use super::route::search_ahead;
 use super::{
     Candidate, Fallback, Grip, LimbPhase, LocoView, MAX_TRACES, NearRing, Search, Sloth, Status,
@@ -375,27 +374,14 @@ impl Sloth {
                 let l = &mut self.limbs[li];
                 l.phase = LimbPhase::Planted;
                 l.due = false;
-                self.search_failed(env);
+                self.failed_searches = self.failed_searches.saturating_add(1);
+                if self.failed_searches >= env.cfg.stop_after_failed_searches
+                    && self.status == Status::Moving
+                {
+                    self.give_up(env);
+                }
                 return;
             }
-        }
-    }
-
-    /// A limb's search found nothing anywhere: counted; a wanderer meeting
-    /// another head on turns around at once ([`HeadOn::Facing`], `meet.rs`);
-    /// after [`LocomotionConfig::stop_after_failed_searches`] the search
-    /// gives up ([`Self::give_up`]).
-    ///
-    /// [`LocomotionConfig::stop_after_failed_searches`]: crate::LocomotionConfig::stop_after_failed_searches
-    pub(super) fn search_failed(&mut self, env: &LocoView<'_>) {
-        self.failed_searches = self.failed_searches.saturating_add(1);
-        if self.status != Status::Moving {
-            return;
-        }
-        if self.head_on(env) == Some(HeadOn::Facing) {
-            self.yield_head_on(env);
-        } else if self.failed_searches >= env.cfg.stop_after_failed_searches {
-            self.give_up(env);
         }
     }
 
@@ -415,13 +401,7 @@ impl Sloth {
             self.align_to_travel(env);
         }
         let stalled = self.stalled();
-        if self.head_on(env) == Some(HeadOn::Turning) {
-            // A sloth ahead on its branch turns around (`meet.rs`): no turn
-            // back, its way on is the one that sloth clears (counted as a
-            // turn back without a step: the cause is then `boxed_in`).
-            self.failed_searches = 0;
-            self.stalled_turns = self.stalled_turns.max(1);
-        } else if (stalled && self.may_turn_around(env, false))
+        if (stalled && self.may_turn_around(env, false))
             || (self.goal_behind() && self.may_turn_around(env, true))
         {
             self.start_turn(false);
