@@ -1075,38 +1075,42 @@ mod tests {
         }
     }
 
+    /// Special `f32` values for the cell tests: zeros, halves, the
+    /// 2²³–2²⁴ and ±2³¹ boundaries, the extremes, subnormals, ±∞, NaN.
+    const SPECIAL_F32: [f32; 28] = [
+        0.0f32,
+        -0.0,
+        0.5,
+        -0.5,
+        1.0,
+        -1.0,
+        -1.5,
+        2.999_999_8,
+        -2.999_999_8,
+        8_388_607.5,
+        -8_388_607.5,
+        16_777_217.0,
+        -16_777_217.0,
+        2_147_483_520.0,
+        2_147_483_648.0,
+        -2_147_483_648.0,
+        -2_147_483_904.0,
+        3e9,
+        -3e9,
+        f32::MAX,
+        f32::MIN,
+        f32::MIN_POSITIVE,
+        -f32::MIN_POSITIVE,
+        1e-45,
+        -1e-45,
+        f32::INFINITY,
+        f32::NEG_INFINITY,
+        f32::NAN,
+    ];
+
     #[test]
     fn floor_i32_matches_floor_cast() {
-        let mut xs = vec![
-            0.0f32,
-            -0.0,
-            0.5,
-            -0.5,
-            1.0,
-            -1.0,
-            -1.5,
-            2.999_999_8,
-            -2.999_999_8,
-            8_388_607.5,
-            -8_388_607.5,
-            16_777_217.0,
-            -16_777_217.0,
-            2_147_483_520.0,
-            2_147_483_648.0,
-            -2_147_483_648.0,
-            -2_147_483_904.0,
-            3e9,
-            -3e9,
-            f32::MAX,
-            f32::MIN,
-            f32::MIN_POSITIVE,
-            -f32::MIN_POSITIVE,
-            1e-45,
-            -1e-45,
-            f32::INFINITY,
-            f32::NEG_INFINITY,
-            f32::NAN,
-        ];
+        let mut xs = SPECIAL_F32.to_vec();
         let mut state = 0x9E37_79B9_7F4A_7C15u64;
         for _ in 0..200_000 {
             state ^= state << 13;
@@ -1126,33 +1130,7 @@ mod tests {
     /// patterns, at the crowd's inverse cell and at random ones.
     #[test]
     fn cell_of_is_floor_i32_per_axis() {
-        let special = [
-            0.0f32,
-            -0.0,
-            0.5,
-            -0.5,
-            -1.0,
-            -1.5,
-            -2.999_999_8,
-            8_388_607.5,
-            -8_388_607.5,
-            16_777_217.0,
-            -16_777_217.0,
-            2_147_483_520.0,
-            2_147_483_648.0,
-            -2_147_483_648.0,
-            -2_147_483_904.0,
-            3e9,
-            -3e9,
-            f32::MAX,
-            f32::MIN,
-            -f32::MIN_POSITIVE,
-            1e-45,
-            -1e-45,
-            f32::INFINITY,
-            f32::NEG_INFINITY,
-            f32::NAN,
-        ];
+        let special = SPECIAL_F32;
         let bits = |c: IVec3| c.to_array();
         for &x in &special {
             for &y in &special {
