@@ -454,7 +454,24 @@ impl Sloth {
         grip: Grip,
         pair: Option<(usize, Grip)>,
     ) -> bool {
-        let next = self.after_steps(env, std::iter::once((li, grip)).chain(pair));
+        let mut next = self.after_steps(env, std::iter::once((li, grip)).chain(pair));
+        // Goal mode, a step that lands the last limb on a transfer's target:
+        // the transfer ends at the landing (`finish_transfer`: the travel
+        // heads for the goal along the new support), so the lookahead judges
+        // the sloth as it will be then. Judged with the transfer still under
+        // way, the last fore limb's step onto a 0.2 m trunk, tail first
+        // (branch_trunk 63.937°, 64.097°, 109.655°), passed, and left a
+        // stance in which every limb's step put another out of its reach
+        // band: stopped `no_grip` on the trunk.
+        if !self.wander
+            && let Some(tr) = next.transfer
+            && next.limbs.iter().all(|l| l.grip.support == tr.to)
+        {
+            for l in &mut next.limbs {
+                l.phase = LimbPhase::Planted;
+            }
+            next.finish_transfer(env);
+        }
         footfall_order_from(env, li)
             .into_iter()
             .filter(|&lj| lj != li && pair.is_none_or(|(pi, _)| lj != pi))
