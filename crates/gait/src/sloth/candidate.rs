@@ -653,12 +653,9 @@ impl Sloth {
         // every goal-mode sloth, or after any re-plan, the rule changed
         // transfers the back-offs alone carry through (to-branch 0.15 m
         // 153.354°, 0.08 m 146.4577°).
-        let failing_closing = self.close_up
-            && !self.wander
-            && !limb.is_fore()
-            && self.transfer.is_none()
-            && self.failed_searches > 0
-            && -cur_lead > cfg.min_step_m;
+        // (Only goal-mode back-offs set `close_up`.)
+        let failing_closing =
+            self.close_up && failing_hind && self.transfer.is_none() && -cur_lead > cfg.min_step_m;
         let min_lead = if cur_lead < -(cfg.max_step_m - cfg.min_step_m)
             || girdle_locked
             || tail_first_closing
