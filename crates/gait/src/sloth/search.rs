@@ -648,8 +648,9 @@ impl Sloth {
     /// find: on its own support or an admissible neighbour, every
     /// [`LOOKAHEAD_STRIDE`], no traces) after which `then` holds of the
     /// sloth: a lookahead two steps deep. Each passing candidate places the
-    /// body again, so it is kept to the rare stance that needs it
-    /// ([`Sloth::partner_follows`]).
+    /// body again, so it is kept to the rare stances that need it
+    /// ([`Sloth::partner_follows`]; a goal-mode transfer-ending step,
+    /// [`Self::leaves_a_step`]).
     pub(super) fn has_step_then(
         &self,
         env: &LocoView<'_>,
