@@ -22,3 +22,14 @@ fn a_transfer_ending_step_is_judged_by_the_sloth_after_the_transfer() {
         &[(63.937, 0.2), (64.097, 0.2), (109.655, 0.2)],
     );
 }
+
+/// A transfer-ending step is judged two steps deep: some other limb has a
+/// step after which a limb still has one. Judged one step deep, the left
+/// hind limb's landing on the trunk left only the right fore limb a short
+/// step, after which no limb had one: main 994fc4a stood there until it gave
+/// up, its back-offs ended in such stances twice more, and it arrived
+/// 98.657 s, 5 ms past its time limit.
+#[test]
+fn a_transfer_ending_step_is_judged_two_steps_deep() {
+    common::assert_transfers_pass(TrunkVariant::ToTrunk, &[(158.443, 0.2)]);
+}

@@ -471,6 +471,25 @@ impl Sloth {
                 l.phase = LimbPhase::Planted;
             }
             next.finish_transfer(env);
+            // Judged two steps deep (`has_step_then`): some other limb has
+            // a step after which a limb other than that one still has one,
+            // as the search will judge that step by this lookahead. One step
+            // deep, branch_trunk 0.2 m 158.443° passed the left hind limb's
+            // landing on the trunk with only the right fore limb left a 4 cm
+            // step, after which no limb had one: the sloth stood 5.6 s until
+            // it gave up, and its back-offs ended in such stances twice more
+            // (arriving 5 ms past the time limit; docs/scenarios.md).
+            return footfall_order_from(env, li)
+                .into_iter()
+                .filter(|&lj| lj != li && pair.is_none_or(|(pi, _)| lj != pi))
+                .any(|lj| {
+                    next.has_step_then(env, lj, |s| {
+                        footfall_order_from(env, lj)
+                            .into_iter()
+                            .filter(|&k| k != lj)
+                            .any(|k| s.has_step(env, k))
+                    })
+                });
         }
         footfall_order_from(env, li)
             .into_iter()
@@ -629,8 +648,9 @@ impl Sloth {
     /// find: on its own support or an admissible neighbour, every
     /// [`LOOKAHEAD_STRIDE`], no traces) after which `then` holds of the
     /// sloth: a lookahead two steps deep. Each passing candidate places the
-    /// body again, so it is kept to the rare stance that needs it
-    /// ([`Sloth::partner_follows`]).
+    /// body again, so it is kept to the rare stances that need it
+    /// ([`Sloth::partner_follows`]; a goal-mode transfer-ending step,
+    /// [`Self::leaves_a_step`]).
     pub(super) fn has_step_then(
         &self,
         env: &LocoView<'_>,
