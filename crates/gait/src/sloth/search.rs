@@ -463,7 +463,7 @@ impl Sloth {
         // (branch_trunk 63.937°, 64.097°, 109.655°), passed, and left a
         // stance in which every limb's step put another out of its reach
         // band: stopped `no_grip` on the trunk.
-        if !self.wander
+        let ends_transfer = if !self.wander
             && let Some(tr) = next.transfer
             && next.limbs.iter().all(|l| l.grip.support == tr.to)
         {
@@ -471,30 +471,33 @@ impl Sloth {
                 l.phase = LimbPhase::Planted;
             }
             next.finish_transfer(env);
-            // Judged two steps deep (`has_step_then`): some other limb has
-            // a step after which a limb other than that one still has one,
-            // as the search will judge that step by this lookahead. One step
-            // deep, branch_trunk 0.2 m 158.443° passed the left hind limb's
-            // landing on the trunk with only the right fore limb left a 4 cm
-            // step, after which no limb had one: the sloth stood 5.6 s until
-            // it gave up, and its back-offs ended in such stances twice more
-            // (arriving 5 ms past the time limit; docs/scenarios.md).
-            return footfall_order_from(env, li)
+            true
+        } else {
+            false
+        };
+        // The limbs other than `from` (and the pair's partner), in footfall
+        // order from the next.
+        let others = |from: usize, pair: Option<(usize, Grip)>| {
+            footfall_order_from(env, from)
                 .into_iter()
-                .filter(|&lj| lj != li && pair.is_none_or(|(pi, _)| lj != pi))
-                .any(|lj| {
-                    next.has_step_then(env, lj, |s| {
-                        footfall_order_from(env, lj)
-                            .into_iter()
-                            .filter(|&k| k != lj)
-                            .any(|k| s.has_step(env, k))
-                    })
-                });
-        }
-        footfall_order_from(env, li)
-            .into_iter()
-            .filter(|&lj| lj != li && pair.is_none_or(|(pi, _)| lj != pi))
-            .any(|lj| next.has_step(env, lj))
+                .filter(move |&lj| lj != from && pair.is_none_or(|(pi, _)| lj != pi))
+        };
+        others(li, pair).any(|lj| {
+            if ends_transfer {
+                // Judged two steps deep (`has_step_then`): some other limb
+                // has a step after which a limb other than that one still
+                // has one, as the search will judge that step by this
+                // lookahead. One step deep, branch_trunk 0.2 m 158.443°
+                // passed the left hind limb's landing on the trunk with only
+                // the right fore limb left a 4 cm step, after which no limb
+                // had one: the sloth stood 5.6 s until it gave up, and its
+                // back-offs ended in such stances twice more (arriving 5 ms
+                // past the time limit; docs/scenarios.md).
+                next.has_step_then(env, lj, |s| others(lj, None).any(|k| s.has_step(env, k)))
+            } else {
+                next.has_step(env, lj)
+            }
+        })
     }
 
     /// Whether the step of limb `li` to `grip` (and the hind pair's partner
