@@ -5,7 +5,7 @@
 
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
-use slothsim_load::{Grip as LoadGrip, GripLoads, LoadError, LoadParams, Stance};
+use slothsim_load::{Grip as LoadGrip, LoadError, LoadParams, Stance};
 
 use crate::LocoView;
 use crate::LocomotionConfig;
@@ -255,66 +255,6 @@ pub struct LimbLoads {
     pub ok: bool,
 }
 
-/// A sloth's grip-load solve, set up ([`Sloth::grip_load`] and the release checks):
-/// its holding grips in limb order, the limb each is, the active limits and forces of
-/// the last loads per grip (where the solve starts), the centre of mass and its
-/// acceleration.
-#[derive(Clone, Copy)]
-struct LoadJob {
-    grips: [LoadGrip; 4],
-    limb_of: [usize; 4],
-    hint: [u8; 4],
-    warm: [Vec3; 4],
-    k: usize,
-    com: Vec3,
-    acc: Vec3,
-}
-
-impl LoadJob {
-    /// The kernel's stance.
-    fn stance(&self) -> Stance<'_> {
-        Stance {
-            com: self.com,
-            com_acc: self.acc,
-            ang_mom_rate: Vec3::ZERO,
-            grips: &self.grips[..self.k],
-        }
-    }
-
-    /// The last loads' forces, per grip.
-    fn warm(&self) -> &[Vec3] {
-        &self.warm[..self.k]
-    }
-
-    /// The kernel's answer by limb, and the active limits per limb.
-    fn loads(&self, params: &LoadParams, solved: &GripLoads) -> (LimbLoads, [u8; 4]) {
-        let mut out = LimbLoads {
-            residual_force: solved.residual_force,
-            residual_torque: solved.residual_torque,
-            residual_bw: solved.residual_bw(params),
-            weight_n: params.body_weight_n() as f32,
-            ok: true,
-            ..LimbLoads::default()
-        };
-        let mut active = [0u8; 4];
-        for (i, f) in solved.grip_forces().iter().enumerate() {
-            out.force[self.limb_of[i]] = *f;
-            active[self.limb_of[i]] = solved.active[i];
-        }
-        (out, active)
-    }
-}
-
-/// What [`Sloth::grip_load`]'s frame comes to before its solve.
-enum LoadStep {
-    /// A frame between two of every `every`.
-    Skip,
-    /// The last loads, kept.
-    Kept(LimbLoads),
-    /// A solve to make.
-    Solve(LoadJob),
-}
-
 /// The kernel's parameters from the locomotion config.
 pub fn load_params(cfg: &LocomotionConfig) -> LoadParams {
     LoadParams {
@@ -377,10 +317,7 @@ impl Sloth {
 
     /// Loads with the holding limbs except `except` (a limb index, or 4 for none),
     /// from the centre of mass and acceleration last recorded by [`Sloth::grip_load`],
-    /// with the active limits per limb (the solve starts from last frame's). The stage
-    /// and the release checks set up their solves themselves (`load_job`); the tests
-    /// ask this.
-    #[cfg(test)]
+    /// with the active limits per limb (the solve starts from last frame's).
     fn loads_without(
         &self,
         w: &LocoView<'_>,
@@ -405,44 +342,51 @@ impl Sloth {
         com: Vec3,
     ) -> Result<(LimbLoads, [u8; 4]), LoadError> {
         let params = load_params(w.cfg);
-        let job = self.load_job(except, com);
-        // The stage's own solve may start a cone's Newton steps from its last answer; a
-        // release check (another set of grips) has none to give. Both take the kernel's
-        // wrench-space Newton first (`slothsim_load::solve_warm`).
-        let warm = if except == 4 { job.warm() } else { &[] };
-        let solved = slothsim_load::solve_warm(&params, &job.stance(), &job.hint, warm)?;
-        Ok(job.loads(&params, &solved))
-    }
-
-    /// The solve of the holding limbs except `except` (a limb index, or 4 for none)
-    /// with the centre of mass at `com` and the acceleration last recorded.
-    fn load_job(&self, except: usize, com: Vec3) -> LoadJob {
-        let mut job = LoadJob {
-            grips: [LoadGrip {
-                point: Vec3::ZERO,
-                normal: Vec3::Y,
-            }; 4],
-            limb_of: [0; 4],
-            hint: [0; 4],
-            warm: [Vec3::ZERO; 4],
-            k: 0,
-            com,
-            acc: self.load.com_acc(),
-        };
+        let mut grips = [LoadGrip {
+            point: Vec3::ZERO,
+            normal: Vec3::Y,
+        }; 4];
+        let mut limb_of = [0usize; 4];
+        let mut hint = [0u8; 4];
+        let mut warm = [Vec3::ZERO; 4];
+        let mut k = 0;
         for (li, l) in self.limbs.iter().enumerate() {
             if li != except && l.phase != LimbPhase::Swinging {
-                let k = job.k;
-                job.grips[k] = LoadGrip {
+                grips[k] = LoadGrip {
                     point: l.grip.point,
                     normal: l.grip.normal,
                 };
-                job.limb_of[k] = li;
-                job.hint[k] = self.load.active[li];
-                job.warm[k] = self.load.forces[li];
-                job.k += 1;
+                limb_of[k] = li;
+                hint[k] = self.load.active[li];
+                warm[k] = self.load.forces[li];
+                k += 1;
             }
         }
-        job
+        let stance = Stance {
+            com,
+            com_acc: self.load.com_acc(),
+            ang_mom_rate: Vec3::ZERO,
+            grips: &grips[..k],
+        };
+        // The stage's own solve may start a cone's Newton steps from its last answer; a
+        // release check (another set of grips) has none to give. Both take the kernel's
+        // wrench-space Newton first (`slothsim_load::solve_warm`).
+        let warm = if except == 4 { &warm[..k] } else { &[] };
+        let solved = slothsim_load::solve_warm(&params, &stance, &hint, warm)?;
+        let mut out = LimbLoads {
+            residual_force: solved.residual_force,
+            residual_torque: solved.residual_torque,
+            residual_bw: solved.residual_bw(&params),
+            weight_n: params.body_weight_n() as f32,
+            ok: true,
+            ..LimbLoads::default()
+        };
+        let mut active = [0u8; 4];
+        for (i, f) in solved.grip_forces().iter().enumerate() {
+            out.force[limb_of[i]] = *f;
+            active[limb_of[i]] = solved.active[i];
+        }
+        Ok((out, active))
     }
 
     /// The GripLoad stage's kernel, run every `every`-th frame (sloths staggered by id;
@@ -450,86 +394,13 @@ impl Sloth {
     /// holding claw carries and the residual. A solver failure is counted
     /// (`load.failures`) and returns loads with `ok = false`, never NaN.
     pub fn grip_load(&mut self, w: &LocoView<'_>, dt: f32, every: u32) -> Option<LimbLoads> {
-        match self.grip_load_begin(w, dt, every) {
-            LoadStep::Skip => None,
-            LoadStep::Kept(l) => Some(l),
-            LoadStep::Solve(job) => {
-                let params = load_params(w.cfg);
-                let solved =
-                    slothsim_load::solve_warm(&params, &job.stance(), &job.hint, job.warm());
-                Some(self.grip_load_end(w, &job, solved))
-            }
-        }
-    }
-
-    /// [`Sloth::grip_load`] of every sloth of a batch, handing sloth `i`'s loads to
-    /// `set(i, loads)` where it returns some: the solves four at a time
-    /// (`slothsim_load::solve_warm4`, whose lanes are each `solve_warm` bit for bit), so
-    /// every sloth ends exactly as its own [`Sloth::grip_load`] would leave it.
-    pub fn grip_load_batch<S: AsMut<Sloth>>(
-        sloths: &mut [S],
-        w: &LocoView<'_>,
-        dt: f32,
-        every: u32,
-        mut set: impl FnMut(usize, LimbLoads),
-    ) {
-        let params = load_params(w.cfg);
-        let mut pending: [Option<(usize, LoadJob)>; 4] = [None; 4];
-        let mut n = 0;
-        for i in 0..sloths.len() {
-            match sloths[i].as_mut().grip_load_begin(w, dt, every) {
-                LoadStep::Skip => {}
-                LoadStep::Kept(l) => set(i, l),
-                LoadStep::Solve(job) => {
-                    pending[n] = Some((i, job));
-                    n += 1;
-                    if n == 4 {
-                        Self::grip_loads4(sloths, w, &params, &mut pending, &mut set);
-                        n = 0;
-                    }
-                }
-            }
-        }
-        if n > 0 {
-            Self::grip_loads4(sloths, w, &params, &mut pending, &mut set);
-        }
-    }
-
-    /// The pending solves of [`Sloth::grip_load_batch`] (each sloth's index and job),
-    /// solved together and finished; `pending` is left empty.
-    fn grip_loads4<S: AsMut<Sloth>>(
-        sloths: &mut [S],
-        w: &LocoView<'_>,
-        params: &LoadParams,
-        pending: &mut [Option<(usize, LoadJob)>; 4],
-        set: &mut impl FnMut(usize, LimbLoads),
-    ) {
-        let stances = pending
-            .each_ref()
-            .map(|p| p.as_ref().map(|(_, job)| job.stance()));
-        let jobs = std::array::from_fn(|l| {
-            let job = &pending[l].as_ref()?.1;
-            Some((stances[l].as_ref()?, &job.hint, job.warm()))
-        });
-        let solved = slothsim_load::solve_warm4(params, jobs);
-        for (p, solved) in pending.iter_mut().zip(solved) {
-            if let (Some((i, job)), Some(solved)) = (p.take(), solved) {
-                let l = sloths[i].as_mut().grip_load_end(w, &job, solved);
-                set(i, l);
-            }
-        }
-    }
-
-    /// [`Sloth::grip_load`] up to its solve: the frames skipped, the centre of mass
-    /// recorded, the last loads kept, or the solve to make.
-    fn grip_load_begin(&mut self, w: &LocoView<'_>, dt: f32, every: u32) -> LoadStep {
         let every = every.max(1);
         if self.load.samples == 0 && self.load.skipped == 0 {
             self.load.skipped = self.id % every;
         }
         self.load.skipped += 1;
         if self.load.skipped < every {
-            return LoadStep::Skip;
+            return None;
         }
         self.load.skipped = 0;
         let com = self.centre_of_mass(w);
@@ -541,28 +412,15 @@ impl Sloth {
             .solved_from
             .is_some_and(|from| from.close_to(&self.limbs, self.load.com, acc))
         {
-            return LoadStep::Kept(self.last_loads(w));
+            return Some(self.last_loads(w));
         }
-        // As `loads_without(w, 4)`: the centre of mass just recorded.
-        LoadStep::Solve(self.load_job(4, self.load.com))
-    }
-
-    /// [`Sloth::grip_load`] after its solve (`solved`: `job`'s answer).
-    fn grip_load_end(
-        &mut self,
-        w: &LocoView<'_>,
-        job: &LoadJob,
-        solved: Result<GripLoads, LoadError>,
-    ) -> LimbLoads {
-        match solved {
-            Ok(solved) => {
-                let (l, active) = job.loads(&load_params(w.cfg), &solved);
+        Some(match self.loads_without(w, 4) {
+            Ok((l, active)) => {
                 self.load.residual_bw = l.residual_bw;
                 self.load.residual_force = l.residual_force;
                 self.load.residual_torque = l.residual_torque;
                 self.load.active = active;
                 self.load.forces = l.force;
-                let acc = self.load.com_acc();
                 self.load.solved_from = Some(LoadInputs::of(&self.limbs, self.load.com, acc));
                 l
             }
@@ -571,7 +429,7 @@ impl Sloth {
                 self.load.solved_from = None;
                 LimbLoads::default()
             }
-        }
+        })
     }
 
     /// The loads the stage last solved, as it returned them (kept in [`LoadTrack`]).

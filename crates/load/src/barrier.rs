@@ -80,38 +80,7 @@ pub fn solve_warm(
     hint: &ActiveSet,
     warm: &[Vec3],
 ) -> Result<GripLoads, LoadError> {
-    solve_warm_after(params, stance, hint, warm, closed_or_wrench(params, stance))
-}
-
-/// One stage's solves of up to four stances (`None`: no stance in that lane), each
-/// `(stance, hint, warm)` as [`solve_warm`]'s arguments: lane `i` is exactly
-/// `solve_warm(params, stance, hint, warm)` (bit for bit; `None` for an empty lane).
-/// The closed form of the four runs in SIMD lanes (`closed4.rs`); what it does not
-/// settle goes on stance by stance.
-#[allow(clippy::type_complexity)]
-pub fn solve_warm4(
-    params: &LoadParams,
-    jobs: [Option<(&Stance, &ActiveSet, &[Vec3])>; 4],
-) -> [Option<Result<GripLoads, LoadError>>; 4] {
-    let closed = crate::closed4::closed_or_wrench4(params, jobs.map(|j| j.map(|(s, _, _)| s)));
-    let mut out = [None, None, None, None];
-    for (i, (job, closed)) in jobs.into_iter().zip(closed).enumerate() {
-        if let Some((stance, hint, warm)) = job {
-            out[i] = Some(solve_warm_after(params, stance, hint, warm, closed));
-        }
-    }
-    out
-}
-
-/// [`solve_warm`] after its closed form (`closed`: `closed_or_wrench`'s answer).
-fn solve_warm_after(
-    params: &LoadParams,
-    stance: &Stance,
-    hint: &ActiveSet,
-    warm: &[Vec3],
-    closed: Option<Closed>,
-) -> Result<GripLoads, LoadError> {
-    match closed {
+    match closed_or_wrench(params, stance) {
         Some(Closed::Inside(out)) => return Ok(out),
         Some(Closed::Outside(w, r0)) => {
             let hinted = hint[..w.k].iter().any(|&b| b != 0);

@@ -141,7 +141,7 @@ pub(crate) struct Wrench {
 
 /// `v − v`: zero where `v` is finite, NaN in each component that is not.
 #[allow(clippy::eq_op)]
-pub(crate) fn nan_of(v: glam::Vec3) -> glam::Vec3 {
+fn nan_of(v: glam::Vec3) -> glam::Vec3 {
     v - v
 }
 
@@ -157,7 +157,7 @@ fn positive_finite(v: f64) -> bool {
 
 /// [`LoadParams::validate`] as a test (every parameter finite and > 0), without forming
 /// an error. Evaluated without short cuts, so the eight compare as two vectors.
-pub(crate) fn params_valid(p: &LoadParams) -> bool {
+fn params_valid(p: &LoadParams) -> bool {
     positive_finite(p.mass_kg)
         & positive_finite(p.gravity)
         & positive_finite(p.mu)

@@ -16,7 +16,6 @@
 mod active;
 mod barrier;
 mod closed;
-mod closed4;
 mod dual;
 mod error;
 mod model;
@@ -24,7 +23,7 @@ mod params;
 mod reference;
 
 pub use active::{ActiveSet, CONE, PULL, PUSH};
-pub use barrier::{solve, solve_from, solve_warm, solve_warm4};
+pub use barrier::{solve, solve_from, solve_warm};
 pub use error::LoadError;
 pub use model::{
     Grip, GripLoads, GripState, MAX_GRIPS, MassPoint, SolveMethod, Stance, centre_of_mass,

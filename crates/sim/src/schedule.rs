@@ -213,9 +213,11 @@ fn sloth_pass(
             // would leave it, so the pairing cannot change a bit).
             let iterations = Sloth::solve_limbs_batch(states, solves, &w);
             laps.lap(3);
-            // The loads' closed forms four sloths at a time
-            // (`Sloth::grip_load_batch`: each lane is its own solve, bit for bit).
-            Sloth::grip_load_batch(states, &w, dt, every, |i, l| loads[i].0 = l);
+            for (s, g) in states.iter_mut().zip(loads.iter_mut()) {
+                if let Some(l) = s.0.grip_load(&w, dt, every) {
+                    g.0 = l;
+                }
+            }
             laps.lap(4);
             for ((s, tr), pts) in states.iter_mut().zip(traces).zip(points) {
                 s.0.transitions(&searching, dt, &mut tr.0);
