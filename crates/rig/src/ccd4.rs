@@ -288,6 +288,79 @@ pub fn solve8_prepared_tolerances(
     std::array::from_fn(|i| if i < 4 { a[i] } else { b[i - 4] })
 }
 
+/// [`solve8_prepared_tolerances`] for a caller that needs every lane within
+/// its `stop` (at least its tolerance; +∞: any end will do) and nothing more
+/// where one is not: `None` if some lane `i` ends farther than `stop[i]` from
+/// its target, else every lane's result and pose, bit for bit as
+/// [`solve8_prepared_tolerances`]. Lanes the vector path leaves to the scalar
+/// solver are finished in lane order, and after the first that ends beyond
+/// its `stop` the rest are not (the poses are then anywhere): a step check
+/// that fails on one stance's lane spares the others' scalar solves. A build
+/// of the kernel of its own (a const parameter): CcdSolve's
+/// [`solve8_prepared_tolerances`] keeps the kernel's code without the stops.
+pub fn solve8_prepared_tolerances_unless(
+    chains: &LimbChains4,
+    roots: [RootTransform; 8],
+    targets: [Vec3; 8],
+    poses: &mut [ChainPose; 8],
+    params: &CcdParams,
+    tolerances: [f32; 8],
+    stop: [f32; 8],
+) -> Option<[CcdResult; 8]> {
+    debug_assert!(
+        (0..8).all(|i| stop[i].partial_cmp(&tolerances[i]) != Some(std::cmp::Ordering::Less)),
+        "a stop below its lane's tolerance"
+    );
+    #[cfg(target_arch = "x86_64")]
+    if let Some((c8, _)) = &chains.soa8 {
+        let c = &chains.chains;
+        let refs: [&LimbChain; 8] = std::array::from_fn(|i| &c[i % 4]);
+        let layout = lanes8::Layout::Prepared(Some(c8));
+        // SAFETY: `soa8` exists only where the CPU has AVX2 (see `LimbChains4::new`).
+        let mut stopped = false;
+        let r = unsafe {
+            solve8_unless_avx2(
+                refs,
+                layout,
+                roots,
+                targets,
+                poses,
+                params,
+                tolerances,
+                stop,
+                &mut stopped,
+            )
+        };
+        return (!stopped).then_some(r);
+    }
+    let r = solve8_prepared_tolerances(chains, roots, targets, poses, params, tolerances);
+    (!(0..8).any(|i| r[i].error > stop[i])).then_some(r)
+}
+
+/// The eight-lane kernel with its stops ([`solve8_prepared_tolerances_unless`]),
+/// compiled with AVX2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[allow(
+    clippy::too_many_arguments,
+    reason = "the kernel's arguments and the stops"
+)]
+fn solve8_unless_avx2(
+    chains: [&LimbChain; 8],
+    layout: lanes8::Layout<'_>,
+    roots: [RootTransform; 8],
+    targets: [Vec3; 8],
+    poses: &mut [ChainPose; 8],
+    params: &CcdParams,
+    tols: [f32; 8],
+    stop: [f32; 8],
+    stopped: &mut bool,
+) -> [CcdResult; 8] {
+    lanes8::solve_impl_unless::<true>(
+        chains, layout, roots, targets, poses, params, tols, stop, stopped,
+    )
+}
+
 /// The eight-lane transposed chains and their first joint, built with AVX2 enabled.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
@@ -566,6 +639,97 @@ mod tests {
         assert!(
             moved > 5000 && vector > 10_000,
             "{moved} moved, {vector} vector lanes"
+        );
+    }
+
+    /// The eight lanes with stops (the step checks' use): `None` exactly where a
+    /// lane of the plain call ends beyond its stop, and otherwise the plain
+    /// call's results and poses, bit for bit. Stops at the tolerance, at 1 cm
+    /// (the checks' polish limit) and +∞; targets near, far and unreachable,
+    /// warm and cold, with and without the polish, a non-finite target now and
+    /// then; some calls stop with later lanes still to finish.
+    #[test]
+    fn eight_lanes_with_stops_are_the_plain_call_or_none() {
+        let rig = Rig::sloth();
+        let chains: [&LimbChain; 4] = std::array::from_fn(|i| &rig.chains()[i]);
+        let prepared = LimbChains4::new(chains);
+        let mut s = 0x5_70_b5_u64;
+        let (mut stopped, mut kept, mut spared) = (0, 0, 0u64);
+        for params in [
+            CcdParams::default(),
+            CcdParams {
+                refine: false,
+                max_iterations: 32,
+                ..CcdParams::default()
+            },
+        ] {
+            for k in 0..1500 {
+                let roots: [RootTransform; 8] = std::array::from_fn(|_| root(&mut s));
+                let tols: [f32; 8] = std::array::from_fn(|_| {
+                    [params.tolerance, 0.003, 0.0015, f32::INFINITY]
+                        [(rnd(&mut s) * 4.0) as usize % 4]
+                });
+                let stop: [f32; 8] = std::array::from_fn(|i| {
+                    [tols[i], tols[i].max(0.01), f32::INFINITY][(rnd(&mut s) * 3.0) as usize % 3]
+                });
+                let mut targets: [Vec3; 8] = std::array::from_fn(|i| {
+                    let c = chains[i % 4];
+                    let u: [f32; 12] = std::array::from_fn(|_| rnd(&mut s));
+                    let p = c.fk(roots[i], &c.sample_pose(&u))[4];
+                    let d = [0.0, 0.005, 0.03, 0.5][(k + i) % 4];
+                    p + d * Vec3::new(rnd(&mut s) - 0.5, rnd(&mut s) - 0.5, rnd(&mut s) - 0.5)
+                });
+                if k % 97 == 0 {
+                    targets[k % 8] = Vec3::NAN;
+                }
+                let start: [ChainPose; 8] = std::array::from_fn(|i| {
+                    if k % 5 == 0 {
+                        ChainPose::NEUTRAL
+                    } else {
+                        let u: [f32; 12] = std::array::from_fn(|_| rnd(&mut s));
+                        chains[i % 4].sample_pose(&u)
+                    }
+                });
+                let mut a = start;
+                let plain =
+                    solve8_prepared_tolerances(&prepared, roots, targets, &mut a, &params, tols);
+                let before = SCALAR_LANES.with(|n| n.get());
+                let mut b = start;
+                let r = solve8_prepared_tolerances_unless(
+                    &prepared, roots, targets, &mut b, &params, tols, stop,
+                );
+                let scalar = SCALAR_LANES.with(|n| n.get()) - before;
+                let beyond = (0..8).any(|i| plain[i].error > stop[i]);
+                match r {
+                    Some(r) => {
+                        assert!(!beyond, "call {k}: a lane beyond its stop answered");
+                        for i in 0..8 {
+                            assert!(
+                                same(&r[i], &plain[i]) && bits(&a[i]) == bits(&b[i]),
+                                "lane {i}, call {k}: {:?} vs {:?}",
+                                r[i],
+                                plain[i]
+                            );
+                        }
+                        kept += 1;
+                    }
+                    None => {
+                        assert!(beyond, "call {k}: stopped with every lane within its stop");
+                        stopped += 1;
+                        // The scalar lanes the plain call finished and this one did not.
+                        let all = SCALAR_LANES.with(|n| n.get());
+                        let mut again = start;
+                        solve8_prepared_tolerances(
+                            &prepared, roots, targets, &mut again, &params, tols,
+                        );
+                        spared += (SCALAR_LANES.with(|n| n.get()) - all) - scalar;
+                    }
+                }
+            }
+        }
+        assert!(
+            stopped > 300 && kept > 300 && spared > 100,
+            "{stopped} stopped, {kept} answered, {spared} scalar lanes spared"
         );
     }
 

@@ -930,11 +930,49 @@ pub(super) fn solve_impl(
     params: &CcdParams,
     tols: [f32; N],
 ) -> [CcdResult; N] {
+    // Without stops (`STOP` false: the checks compile away, the same code as
+    // a kernel without them).
+    let mut stopped = false;
+    solve_impl_unless::<false>(
+        chains,
+        layout,
+        roots,
+        targets,
+        poses,
+        params,
+        tols,
+        [f32::INFINITY; N],
+        &mut stopped,
+    )
+}
+
+/// [`solve_impl`] with stops where `STOP` (else `stop` is not read): setting
+/// `stopped` as soon as it is known that some lane `i` ends farther than
+/// `stop[i]` from its target (`stop[i]` at least `tols[i]`): the lanes handed
+/// to the scalar solver are finished in lane order, and those after the first
+/// one that ends beyond its `stop` are left unsolved (their results and poses
+/// anything). Otherwise every lane as [`solve_impl`], bit for bit, and
+/// `stopped` is left as it was. Two builds of one kernel: with `STOP` false
+/// (CcdSolve's) every stop test is a constant and folds away, so its code is
+/// that of a kernel without stops.
+#[inline(always)]
+#[allow(clippy::too_many_arguments, reason = "solve_impl's arguments and the stops")]
+pub(super) fn solve_impl_unless<const STOP: bool>(
+    chains: [&LimbChain; N],
+    layout: Layout<'_>,
+    roots: [RootTransform; N],
+    targets: [Vec3; N],
+    poses: &mut [ChainPose; N],
+    params: &CcdParams,
+    tols: [f32; N],
+    stop: [f32; N],
+    stopped: &mut bool,
+) -> [CcdResult; N] {
     let vector = params.order == CcdOrder::TailFirst && params.reach_step;
     if let (true, Layout::Prepared(Some(c))) = (vector, layout)
         && let Some(inputs) = Inputs::gather(&roots, &targets, poses, params, &tols)
     {
-        return run(chains, c, inputs, poses, params);
+        return run::<STOP>(chains, c, inputs, poses, params, &stop, stopped);
     }
     let lane_params: [CcdParams; N] = std::array::from_fn(|i| CcdParams {
         tolerance: tols[i],
@@ -972,13 +1010,16 @@ pub(super) fn solve_impl(
                 tols: F::from_array(tols),
                 pose: gather_poses(poses),
             };
-            return run(chains, c, inputs, poses, params);
+            return run::<STOP>(chains, c, inputs, poses, params, &stop, stopped);
         }
     }
     for i in 0..N {
         if valid[i] {
             results[i] = solve_local_dispatch(chains[i], local[i], &mut poses[i], &lane_params[i]);
         }
+    }
+    if STOP && (0..N).any(|i| results[i].error > stop[i]) {
+        *stopped = true;
     }
     results
 }
@@ -1058,14 +1099,19 @@ fn gather_poses(poses: &[ChainPose; N]) -> [Q; CHAIN_JOINTS] {
 }
 
 /// The vector path for `N` valid lanes (`poses`: their warm starts, the
-/// same as `inputs.pose`), then the scalar solver for the lanes that left it.
+/// same as `inputs.pose`), then the scalar solver for the lanes that left it,
+/// in lane order; `stopped` set once one of those ends beyond its `stop` (see
+/// [`solve_impl_unless`]; a lane the vector path finishes has reached its
+/// tolerance, within its `stop`).
 #[inline(always)]
-fn run(
+fn run<const STOP: bool>(
     chains: [&LimbChain; N],
     c: &Chains,
     inputs: Inputs,
     poses: &mut [ChainPose; N],
     params: &CcdParams,
+    stop: &[f32; N],
+    stopped: &mut bool,
 ) -> [CcdResult; N] {
     let Inputs {
         target,
@@ -1148,6 +1194,10 @@ fn run(
             poses[i] = start[i];
             solve_local_dispatch(chains[i], local[i], &mut poses[i], params)
         };
+        if STOP && results[i].error > stop[i] {
+            *stopped = true;
+            return results;
+        }
     }
     results
 }

@@ -72,6 +72,7 @@ pub mod unit;
 pub use ccd::{CcdOrder, CcdParams, CcdResult, CcdStatus, solve};
 pub use ccd4::{
     LimbChains4, solve4, solve4_prepared, solve4_prepared_tolerances, solve8_prepared_tolerances,
+    solve8_prepared_tolerances_unless,
 };
 pub use chain::{CHAIN_JOINTS, ChainPose, LimbChain, RootTransform};
 pub use error::RigError;

@@ -141,6 +141,18 @@ fn reach_check_polish(
     (r.error <= tol, r.error)
 }
 
+/// The error beyond which a reach check of tolerance `tol` fails as it
+/// stands ([`beyond_polish`] is `error > polish_stop(tol, refine)` for every
+/// `error`): the larger of the tolerance and [`CHECK_POLISH_MAX_ERROR`] with a
+/// polish, else the tolerance.
+fn polish_stop(tol: f32, refine: bool) -> f32 {
+    if refine && tol < CHECK_POLISH_MAX_ERROR {
+        CHECK_POLISH_MAX_ERROR
+    } else {
+        tol
+    }
+}
+
 /// Whether a reach check whose sweeps ended `error` from the target fails
 /// as it stands: over `tol`, and beyond where [`reach_check_polish`]
 /// polishes (farther than [`CHECK_POLISH_MAX_ERROR`], or no polish at all).
@@ -1093,19 +1105,23 @@ impl Sloth {
                 let (sa, sb) = (&stances[a], &stances[b]);
                 let pose = self.limb_map(|l| l.pose);
                 let mut poses = lanes8(pose, pose);
-                let r = slothsim_rig::solve8_prepared_tolerances(
+                let tol = lanes8(sa.placed.tol, sb.placed.tol);
+                // `None`: a lane ended beyond the polish (`may_hold` fails);
+                // the lanes after it are not finished.
+                let Some(r) = slothsim_rig::solve8_prepared_tolerances_unless(
                     &env.rig.chains4,
                     lanes8(sa.roots, sb.roots),
                     lanes8(sa.placed.grips, sb.placed.grips),
                     &mut poses,
                     &params,
-                    lanes8(sa.placed.tol, sb.placed.tol),
-                );
+                    tol,
+                    tol.map(|t| polish_stop(t, base.refine)),
+                ) else {
+                    return false;
+                };
+                debug_assert!(may_hold(sa, &r[..4]) && may_hold(sb, &r[4..]));
                 let (pa, pb) = poses.split_at_mut(4);
-                may_hold(sa, &r[..4])
-                    && may_hold(sb, &r[4..])
-                    && holds(sa, pa, &r[..4])
-                    && holds(sb, pb, &r[4..])
+                holds(sa, pa, &r[..4]) && holds(sb, pb, &r[4..])
             }
             [k] => {
                 let st = &stances[k];
@@ -1301,6 +1317,51 @@ mod tests {
         self, preset_sloth, tick, walk_presets, walk_presets_with, xorshift,
     };
     use crate::sloth::{NearRing, TraceBatch};
+
+    /// The stop the step checks' IK hands the eight-lane solve
+    /// (`polish_stop`) is [`beyond_polish`]'s test as one comparison: for
+    /// tolerances and errors at, around and far from each other and the
+    /// polish's limit, zero, subnormal, +∞ and NaN, polish on and off.
+    #[test]
+    fn polish_stop_is_beyond_polish() {
+        let p = CHECK_POLISH_MAX_ERROR;
+        let mut vals = vec![
+            0.0,
+            f32::MIN_POSITIVE / 2.0,
+            1e-4,
+            0.0015,
+            0.003,
+            0.0035,
+            p,
+            0.02,
+            1.0,
+            f32::MAX,
+            f32::INFINITY,
+            f32::NAN,
+        ];
+        for v in vals.clone() {
+            vals.extend([v.next_up(), v.next_down()]);
+        }
+        let mut n = 0;
+        for &tol in &vals {
+            for &error in &vals {
+                for refine in [false, true] {
+                    assert_eq!(
+                        error > polish_stop(tol, refine),
+                        beyond_polish(tol, error, refine),
+                        "tol {tol}, error {error}, refine {refine}"
+                    );
+                    assert_ne!(
+                        polish_stop(tol, refine).partial_cmp(&tol),
+                        Some(std::cmp::Ordering::Less),
+                        "a stop below its tolerance"
+                    );
+                    n += 1;
+                }
+            }
+        }
+        assert!(n > 1000);
+    }
 
     /// [`beyond_polish`] (the stances' lanes tested before any is polished)
     /// against [`reach_check_polish`]: on random limbs, roots, targets and
