@@ -312,7 +312,17 @@ impl Sloth {
         self.turns = self.turns.wrapping_add(1);
         self.failed_searches = 0;
         self.stalled_turns = 0;
-        self.stall_from = None;
+        // A wanderer keeps its turn-backs counted since the body last
+        // travelled (`stall_from`; only travel ends the count, `note_step`):
+        // turned around in place, and blocked the new way too (a sloth that
+        // walked up behind it while it turned), its next give-up turns it
+        // around again rather than back, tail first. Traced in the 5,000 ×
+        // 300 s crowd at seed 10 (docs/locomotion.md, "Blocked again after a
+        // turn around"): the count cleared here, such sloths turned back
+        // twice (~11 s without a step) before turning again.
+        if !self.wander {
+            self.stall_from = None;
+        }
         self.stuck_cause = None;
     }
 
@@ -698,6 +708,62 @@ mod tests {
             let tr = sloth.turn.unwrap();
             assert_eq!(tr.sense, before.sense, "case {case}");
             assert_eq!(heading(&tr), heading(&before), "case {case}");
+        }
+    }
+
+    /// A wanderer that turned around because its turn backs brought no step
+    /// (two counted since its body last travelled a max step,
+    /// `Sloth::stall_from`) and whose search gives up again before the body
+    /// has travelled (blocked the new way too: a sloth walked up behind it
+    /// while it turned) turns around again at that give-up, not back (tail
+    /// first, mostly out of its limbs' reach): the turn's handover keeps the
+    /// count, which only travel ends. Once the body has travelled a max step,
+    /// a give-up turns it back as before; in goal mode the handover ends the
+    /// count as before. Without the rule the give-up after the handover
+    /// turns it back (checked: the count is gone after the handover).
+    #[test]
+    fn a_wanderer_blocked_again_after_its_turn_around_turns_around_again() {
+        let (env, base) = preset_sloth(PresetKind::BranchEnd);
+        let view = env.view();
+        for (case, wander) in [true, false].into_iter().enumerate() {
+            let mut sloth = base;
+            sloth.wander = wander;
+            sloth.status = Status::Moving;
+            // Two turn backs without travelling: the turn around begins.
+            sloth.stall_from = Some((sloth.body_pos, 2));
+            sloth.stalled_turns = 2;
+            sloth.start_turn(false);
+            // The turn at the other way, its handover step landed.
+            {
+                let tr = sloth.turn.as_mut().unwrap();
+                tr.angle = PI;
+                tr.to = PI;
+                tr.handover = true;
+                tr.limb = 0;
+            }
+            assert_ne!(sloth.limbs[0].phase, LimbPhase::Swinging);
+            sloth.finish_turn_step(&view);
+            assert!(sloth.turn.is_none(), "case {case}: handed over");
+            assert_eq!(sloth.stalled_turns, 0, "case {case}");
+            if !wander {
+                assert_eq!(sloth.stall_from, None, "case {case}: goal mode");
+                continue;
+            }
+            assert_eq!(sloth.stall_from.map(|(_, n)| n), Some(2), "case {case}");
+            let dir = sloth.dir;
+            let mut again = sloth;
+            again.give_up(&view);
+            assert!(again.turn.is_some(), "case {case}: turns around again");
+            assert_eq!(again.dir, dir, "case {case}");
+            // Travelled a max step since: the count is over, a give-up
+            // turns it back.
+            let mut walked = sloth;
+            walked.body_pos += walked.body_rot * Vec3::Z * view.cfg.max_step_m;
+            walked.note_step(&view);
+            assert_eq!(walked.stall_from, None, "case {case}");
+            walked.give_up(&view);
+            assert!(walked.turn.is_none(), "case {case}: turns back");
+            assert_eq!(walked.dir, -dir, "case {case}: turns back");
         }
     }
 }
