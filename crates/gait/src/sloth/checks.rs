@@ -531,12 +531,26 @@ impl Sloth {
         let kind_change = steps.iter().any(|&(li, ..)| {
             scene.support(self.limbs[li].grip.support).kind != scene.support(support).kind
         });
+        // A wanderer straddling two supports (its grips, as the step
+        // begins, on more than one) hangs its body from both: as a limb
+        // lifts, the body placed from the arc's targets can swing through
+        // one of the held supports before the first arc point (30 %). The
+        // seed-13 crowd's sloth 1568 (with the stall count kept through a
+        // turn around), walking tail first with its fore limbs on one branch
+        // and its hind limbs on another, stepped LH along the hind branch
+        // and its body went 11.4 mm deep at 5–12 % of that swing; sloth 518
+        // of "Turning around across a fork, again" (docs/locomotion.md) did
+        // the same at 16 %. So such a step has its body checked at every
+        // 5 % of the arc too. Goal mode is left as it was.
+        let straddles =
+            self.wander && (1..4).any(|k| self.limbs[k].grip.support != self.limbs[0].grip.support);
         // Tested last, after the IK: its sixteen bodies cost more than the
         // IK (43 k instructions against 32 k), and in the steady crowd the
         // IK fails 30 % of the steps that need this test, the test 0.1 %
         // (every check here is pure: the order only decides how early a
         // step is rejected).
         if !(kind_change
+            || straddles
             || self.hang_trunk.is_some()
             || self.free_support_within_step(env, near(), steps))
         {
@@ -1577,6 +1591,20 @@ mod tests {
     #[test]
     fn step_into_the_branch_its_limb_leaves_is_rejected() {
         assert_drawn_step_rejected(include_str!("testdata/left_branch.json"));
+    }
+
+    /// Issue 24 item 3 (the seed-13 crowd with the stall count kept through
+    /// a turn around, wanderer 1568 at 171.67 s; fixture
+    /// `testdata/straddle_tail_first.json`). Walking tail first while
+    /// straddling two branches (fore limbs on one, hind limbs on the other),
+    /// both held, no support near that no limb holds, the sloth steps its
+    /// left hind limb along the hind branch; drawn frame by frame the body
+    /// goes over [`STANCE_MAX_PENETRATION`] deep early in the swing, before
+    /// the IK checks' first arc point: the step is rejected (without the
+    /// dense arc check for a straddling wanderer the checks take it).
+    #[test]
+    fn straddling_wanderers_step_before_the_first_arc_point_is_rejected() {
+        assert_drawn_step_rejected(include_str!("testdata/straddle_tail_first.json"));
     }
 
     /// Issue 24 (the seed-2 crowd with the dead-stance rule, wanderer 1397
