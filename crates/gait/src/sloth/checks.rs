@@ -1114,7 +1114,7 @@ impl Sloth {
                     .0
             })
         };
-        order.chunks(2).all(|ks| match *ks {
+        let stances_reached = order.chunks(2).all(|ks| match *ks {
             [a, b] => {
                 let (sa, sb) = (&stances[a], &stances[b]);
                 let pose = self.limb_map(|l| l.pose);
@@ -1151,6 +1151,59 @@ impl Sloth {
                 may_hold(st, &r) && holds(st, &mut poses, &r)
             }
             _ => unreachable!("chunks of two"),
+        });
+        stances_reached && self.lands_as_drawn(env, stances, &base)
+    }
+
+    /// Whether each stepping limb (held tightly at the end stance, the last
+    /// of `stances`, in the air at an earlier one) reaches its grip at the
+    /// end from the pose its swing brings it to, not only from its pose now
+    /// ([`Self::stances_hold`]): solved to its target at the last stance
+    /// that has it in the air (the arc's last point) from its pose now,
+    /// then to its grip from there.
+    ///
+    /// The drawn limb follows its arc frame by frame, each solve started
+    /// from the last, and lands with the pose that brings it to; within the
+    /// joint limits the end can be reached from one pose and not from
+    /// another. The seed-1 crowd's sloth 4105 (with the stall count kept
+    /// through a turn around), turning around on one branch, stepped LF to
+    /// a grip its pose at the step's start reached within 1.4 mm; the limb
+    /// drawn along the arc came to rest at its joint limits 8.2 mm short,
+    /// and `pull_to_grips` moved the body 8.2 mm toward the claw in one
+    /// frame, into a branch no limb held (12.8 mm deep). From the pose at
+    /// the arc's last point the end solve stops 11.1 mm short too.
+    fn lands_as_drawn(
+        &self,
+        env: &LocoView<'_>,
+        stances: &[StanceCheck],
+        base: &CcdParams,
+    ) -> bool {
+        let Some((end, arc)) = stances.split_last() else {
+            return true;
+        };
+        (0..4).all(|i| {
+            if end.placed.tol[i] > STANCE_IK_TOLERANCE {
+                return true;
+            }
+            let Some(last) = arc
+                .iter()
+                .rev()
+                .find(|st| st.placed.tol[i] == f32::INFINITY)
+            else {
+                return true;
+            };
+            let chain = &env.rig.chains[i];
+            let mut pose = self.limbs[i].pose;
+            slothsim_rig::solve(chain, last.roots[i], last.placed.grips[i], &mut pose, base);
+            reach_check(
+                chain,
+                end.roots[i],
+                end.placed.grips[i],
+                &mut pose,
+                end.placed.tol[i],
+                base,
+            )
+            .0
         })
     }
 }

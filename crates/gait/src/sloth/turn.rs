@@ -766,4 +766,58 @@ mod tests {
             assert_eq!(walked.dir, -dir, "case {case}: turns back");
         }
     }
+
+    /// Issue 24 item 3 (the seed-1 crowd with the stall count kept through a
+    /// turn around, wanderer 4105 at 250.70 s; fixture
+    /// `testdata/turn_lands_short.json`: the sloth as its step search begins
+    /// a turning step of its left fore limb, all four limbs on one branch).
+    /// The crowd took LF to a grip its pose at the step's start reached
+    /// within 1.4 mm; drawn along the arc, the limb came to rest at its joint
+    /// limits 8.2 mm short, and `pull_to_grips` moved the body 8.2 mm toward
+    /// the claw, 12.8 mm into a branch no limb holds. The search takes no
+    /// turning step of LF there now (none passes); one it takes is not the
+    /// crowd's, and drawn frame by frame (the sim's stages, as the crowd
+    /// draws it) until it lands, its body stays within
+    /// `STANCE_MAX_PENETRATION` of the supports. Without the check of the
+    /// stepping limb's end from its pose on the arc (checks.rs
+    /// `lands_as_drawn`) the search takes the crowd's step, and drawn, its
+    /// body goes 12.77 mm deep (checked: both assertions fail).
+    #[test]
+    fn a_turning_step_whose_drawn_limb_lands_short_is_not_taken() {
+        use super::super::collide::STANCE_MAX_PENETRATION;
+        use super::super::test_util::{crowd_fixture, tick};
+        use super::super::{NearRing, TraceBatch};
+
+        let (fx, sloth, env) = crowd_fixture(include_str!("testdata/turn_lands_short.json"));
+        let view = env.view();
+        let li = fx["limb"].as_u64().unwrap() as usize;
+        let crowds: Vec3 = serde_json::from_value(fx["step"]["point"].clone()).unwrap();
+        let mut s = sloth;
+        if !s.turn_search(&view, li) {
+            // No turning step of that limb passes (the turn waits).
+            println!("no turning step taken");
+            return;
+        }
+        let grip = s.limbs[li].grip.point;
+        assert!(grip.distance(crowds) > 1e-4, "the crowd's step is taken");
+        let (mut batch, mut near) = (TraceBatch::default(), NearRing::default());
+        let mut deepest = f32::NEG_INFINITY;
+        for frame in 0..120 {
+            if frame == 0 {
+                // The rest of the frame the search took the step in.
+                s.body_average(&view, 1.0 / 60.0);
+                s.solve_limbs(&view);
+                s.transitions(&view, 1.0 / 60.0, &mut batch);
+            } else {
+                tick(&mut s, &mut near, &view, &mut batch);
+            }
+            deepest = deepest.max(s.observe(&view).penetration_m);
+            if s.limbs[li].phase != LimbPhase::Swinging {
+                break;
+            }
+        }
+        assert_ne!(s.limbs[li].phase, LimbPhase::Swinging, "landed");
+        println!("turning step to {grip}: body {deepest} m deep");
+        assert!(deepest <= STANCE_MAX_PENETRATION, "{deepest}");
+    }
 }
