@@ -580,6 +580,19 @@ mod tests {
         start: [ChainPose; 8],
     }
 
+    /// The two parameter sets the eight-lane tests run: the sloth's, and
+    /// without the polish with a longer sweep budget.
+    fn case8_params() -> [CcdParams; 2] {
+        [
+            CcdParams::default(),
+            CcdParams {
+                refine: false,
+                max_iterations: 32,
+                ..CcdParams::default()
+            },
+        ]
+    }
+
     /// Call `k`'s inputs drawn from `s`: random roots; per-lane tolerances
     /// (`params`' own, 3 mm, 1.5 mm, +∞); targets at, near, far from and out
     /// of the reach of random poses' claws (a non-finite one every 97th
@@ -626,14 +639,7 @@ mod tests {
         let prepared = LimbChains4::new(chains);
         let mut s = 0x8_1a_u64;
         let (mut moved, mut vector) = (0, 0);
-        for params in [
-            CcdParams::default(),
-            CcdParams {
-                refine: false,
-                max_iterations: 32,
-                ..CcdParams::default()
-            },
-        ] {
+        for params in case8_params() {
             for k in 0..1500 {
                 let Case8 {
                     roots,
@@ -681,14 +687,7 @@ mod tests {
         let prepared = LimbChains4::new(chains);
         let mut s = 0x5_70_b5_u64;
         let (mut stopped, mut kept, mut spared) = (0, 0, 0u64);
-        for params in [
-            CcdParams::default(),
-            CcdParams {
-                refine: false,
-                max_iterations: 32,
-                ..CcdParams::default()
-            },
-        ] {
+        for params in case8_params() {
             for k in 0..1500 {
                 let Case8 {
                     roots,
