@@ -572,6 +572,62 @@ mod tests {
         );
     }
 
+    /// One eight-lane call's inputs (two sets of the four chains).
+    struct Case8 {
+        roots: [RootTransform; 8],
+        tols: [f32; 8],
+        targets: [Vec3; 8],
+        start: [ChainPose; 8],
+    }
+
+    /// The two parameter sets the eight-lane tests run: the sloth's, and
+    /// without the polish with a longer sweep budget.
+    fn case8_params() -> [CcdParams; 2] {
+        [
+            CcdParams::default(),
+            CcdParams {
+                refine: false,
+                max_iterations: 32,
+                ..CcdParams::default()
+            },
+        ]
+    }
+
+    /// Call `k`'s inputs drawn from `s`: random roots; per-lane tolerances
+    /// (`params`' own, 3 mm, 1.5 mm, +∞); targets at, near, far from and out
+    /// of the reach of random poses' claws (a non-finite one every 97th
+    /// call); warm starts from random poses, cold (neutral) every 5th call.
+    fn case8(chains: [&LimbChain; 4], params: &CcdParams, k: usize, s: &mut u64) -> Case8 {
+        let roots: [RootTransform; 8] = std::array::from_fn(|_| root(s));
+        let tols: [f32; 8] = std::array::from_fn(|_| {
+            [params.tolerance, 0.003, 0.0015, f32::INFINITY][(rnd(s) * 4.0) as usize % 4]
+        });
+        let mut targets: [Vec3; 8] = std::array::from_fn(|i| {
+            let c = chains[i % 4];
+            let u: [f32; 12] = std::array::from_fn(|_| rnd(s));
+            let p = c.fk(roots[i], &c.sample_pose(&u))[4];
+            let d = [0.0, 0.005, 0.03, 0.5][(k + i) % 4];
+            p + d * Vec3::new(rnd(s) - 0.5, rnd(s) - 0.5, rnd(s) - 0.5)
+        });
+        if k.is_multiple_of(97) {
+            targets[k % 8] = Vec3::NAN;
+        }
+        let start: [ChainPose; 8] = std::array::from_fn(|i| {
+            if k.is_multiple_of(5) {
+                ChainPose::NEUTRAL
+            } else {
+                let u: [f32; 12] = std::array::from_fn(|_| rnd(s));
+                chains[i % 4].sample_pose(&u)
+            }
+        });
+        Case8 {
+            roots,
+            tols,
+            targets,
+            start,
+        }
+    }
+
     /// Eight lanes (two sets of the four chains) give the scalar solver's bits lane
     /// by lane: warm and cold, near, far and unreachable targets, per-lane
     /// tolerances (infinite ones too), with and without the polish, and a lane
@@ -583,38 +639,14 @@ mod tests {
         let prepared = LimbChains4::new(chains);
         let mut s = 0x8_1a_u64;
         let (mut moved, mut vector) = (0, 0);
-        for params in [
-            CcdParams::default(),
-            CcdParams {
-                refine: false,
-                max_iterations: 32,
-                ..CcdParams::default()
-            },
-        ] {
+        for params in case8_params() {
             for k in 0..1500 {
-                let roots: [RootTransform; 8] = std::array::from_fn(|_| root(&mut s));
-                let tols: [f32; 8] = std::array::from_fn(|_| {
-                    [params.tolerance, 0.003, 0.0015, f32::INFINITY]
-                        [(rnd(&mut s) * 4.0) as usize % 4]
-                });
-                let mut targets: [Vec3; 8] = std::array::from_fn(|i| {
-                    let c = chains[i % 4];
-                    let u: [f32; 12] = std::array::from_fn(|_| rnd(&mut s));
-                    let p = c.fk(roots[i], &c.sample_pose(&u))[4];
-                    let d = [0.0, 0.005, 0.03, 0.5][(k + i) % 4];
-                    p + d * Vec3::new(rnd(&mut s) - 0.5, rnd(&mut s) - 0.5, rnd(&mut s) - 0.5)
-                });
-                if k % 97 == 0 {
-                    targets[k % 8] = Vec3::NAN;
-                }
-                let start: [ChainPose; 8] = std::array::from_fn(|i| {
-                    if k % 5 == 0 {
-                        ChainPose::NEUTRAL
-                    } else {
-                        let u: [f32; 12] = std::array::from_fn(|_| rnd(&mut s));
-                        chains[i % 4].sample_pose(&u)
-                    }
-                });
+                let Case8 {
+                    roots,
+                    tols,
+                    targets,
+                    start,
+                } = case8(chains, &params, k, &mut s);
                 let before = SCALAR_LANES.with(|n| n.get());
                 let mut a = start;
                 let r8 =
@@ -655,40 +687,16 @@ mod tests {
         let prepared = LimbChains4::new(chains);
         let mut s = 0x5_70_b5_u64;
         let (mut stopped, mut kept, mut spared) = (0, 0, 0u64);
-        for params in [
-            CcdParams::default(),
-            CcdParams {
-                refine: false,
-                max_iterations: 32,
-                ..CcdParams::default()
-            },
-        ] {
+        for params in case8_params() {
             for k in 0..1500 {
-                let roots: [RootTransform; 8] = std::array::from_fn(|_| root(&mut s));
-                let tols: [f32; 8] = std::array::from_fn(|_| {
-                    [params.tolerance, 0.003, 0.0015, f32::INFINITY]
-                        [(rnd(&mut s) * 4.0) as usize % 4]
-                });
+                let Case8 {
+                    roots,
+                    tols,
+                    targets,
+                    start,
+                } = case8(chains, &params, k, &mut s);
                 let stop: [f32; 8] = std::array::from_fn(|i| {
                     [tols[i], tols[i].max(0.01), f32::INFINITY][(rnd(&mut s) * 3.0) as usize % 3]
-                });
-                let mut targets: [Vec3; 8] = std::array::from_fn(|i| {
-                    let c = chains[i % 4];
-                    let u: [f32; 12] = std::array::from_fn(|_| rnd(&mut s));
-                    let p = c.fk(roots[i], &c.sample_pose(&u))[4];
-                    let d = [0.0, 0.005, 0.03, 0.5][(k + i) % 4];
-                    p + d * Vec3::new(rnd(&mut s) - 0.5, rnd(&mut s) - 0.5, rnd(&mut s) - 0.5)
-                });
-                if k % 97 == 0 {
-                    targets[k % 8] = Vec3::NAN;
-                }
-                let start: [ChainPose; 8] = std::array::from_fn(|i| {
-                    if k % 5 == 0 {
-                        ChainPose::NEUTRAL
-                    } else {
-                        let u: [f32; 12] = std::array::from_fn(|_| rnd(&mut s));
-                        chains[i % 4].sample_pose(&u)
-                    }
                 });
                 let mut a = start;
                 let plain =
