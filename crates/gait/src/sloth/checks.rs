@@ -1194,6 +1194,10 @@ impl Sloth {
     /// and `pull_to_grips` moved the body 8.2 mm toward the claw in one
     /// frame, into a branch no limb held (12.8 mm deep). From the pose at
     /// the arc's last point the end solve stops 11.1 mm short too.
+    ///
+    /// `end_error`: each limb's error at the end stance's check. A limb
+    /// that ended within [`LANDING_CHECK_MIN_ERROR`] of its grip there is
+    /// not checked again (the check's cost, issue 26).
     fn lands_as_drawn(
         &self,
         env: &LocoView<'_>,
