@@ -134,6 +134,7 @@ impl Sloth {
         }
         self.limbs[li].phase = LimbPhase::Searching;
         self.limbs[li].probe = probe;
+        self.fine_rescan &= !(1 << li);
         // Goal mode, the lone-fore lock going round a circle: where a turn of
         // the transfer's side gives the partner a step onto the trunk, it
         // turns now, with no limb in the air (`Sloth::turn_side_in_lone_lock`).

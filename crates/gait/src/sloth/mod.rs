@@ -355,6 +355,12 @@ pub struct Sloth {
     /// Checkpointed (format 30).
     #[serde(default)]
     pub close_up: bool,
+    /// Goal mode: the limbs (bit `1 << li`) whose current step search found
+    /// nothing at the coarse stride and re-scans its range at every
+    /// back-off point before it counts as failed (`Sloth::queue_candidates`);
+    /// cleared when the limb starts a search. Checkpointed (format 31).
+    #[serde(default)]
+    pub fine_rescan: u8,
     /// Goal mode: step searches the lone fore limb across a locked transfer
     /// onto a trunk has started (see `Sloth::own_search`), kept across
     /// transfers ended and begun again, cleared when a transfer is

@@ -302,7 +302,7 @@ impl Sloth {
             // Stuck (a search gave up since the last step): every back-off
             // point is tried, so a window of valid grips narrower than the
             // coarse stride is not stepped over.
-            let stride = if self.stuck_cause.is_some() {
+            let stride = if self.stuck_cause.is_some() || self.fine_rescan & (1 << li) != 0 {
                 1
             } else {
                 COARSE_STRIDE
@@ -367,6 +367,19 @@ impl Sloth {
                 return;
             }
             if !self.next_neighbour(env, li) && !self.start_retreat(env, li) {
+                // Goal mode: a search that found nothing at the coarse
+                // stride re-scans its own support (and on, as before) at
+                // every back-off point before it counts as failed: the
+                // coarse stride passes over a window of valid grips
+                // narrower than itself (branch_trunk 0.2 m 158.14°: locked
+                // on the trunk after the transfer, the left fore limb's one
+                // valid step lay between two coarse points). A search that
+                // finds a step does exactly what it did before.
+                if self.fine_rescans(li) {
+                    self.fine_rescan |= 1 << li;
+                    self.limbs[li].search = self.own_search(env, li);
+                    continue;
+                }
                 // Nothing anywhere: stay planted.
                 if self.limbs[li].probe {
                     self.end_probe(li, false);
@@ -383,6 +396,16 @@ impl Sloth {
                 return;
             }
         }
+    }
+
+    /// Whether limb `li`'s search, exhausted, re-scans at the fine stride
+    /// (see [`Self::queue_candidates`]): goal mode, not a probe, searched at
+    /// the coarse stride (not stuck) and not re-scanned already.
+    fn fine_rescans(&self, li: usize) -> bool {
+        !self.wander
+            && !self.limbs[li].probe
+            && self.stuck_cause.is_none()
+            && self.fine_rescan & (1 << li) == 0
     }
 
     /// The search gave up (no limb found a step for two gait cycles, or a

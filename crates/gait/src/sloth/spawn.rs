@@ -124,6 +124,7 @@ impl Sloth {
             replans: 0,
             hind_single: false,
             close_up: false,
+            fine_rescan: 0,
             lone_fore_searches: 0,
             turn: None,
             stuck_cause: None,

@@ -16,7 +16,7 @@ use crate::world::{CrowdNeighbours, Locomotion, NearStances, SlothId, SlothState
 
 const MAGIC: &[u8; 16] = b"SLOTHSIM-STATE\0\0";
 /// Checkpoint format version; bump on any change of the saved data.
-pub const CHECKPOINT_VERSION: u32 = 30;
+pub const CHECKPOINT_VERSION: u32 = 31;
 
 #[derive(Serialize, Deserialize)]
 struct Checkpoint {

@@ -1,0 +1,21 @@
+//! A goal-mode step search that finds nothing at the coarse stride re-scans
+//! its range at every back-off point before it counts as failed (issue 24;
+//! `Sloth::queue_candidates`, search.rs). Locked on a 0.15–0.2 m trunk after
+//! a branch → trunk transfer, every limb's coarse search failed although a
+//! fore limb had a valid step between two coarse points; the sloth gave up,
+//! backed off into new locks and was still walking at the time limit.
+//!
+//! Each case failed on main 987a4e8 (the three failures of a 0.01° sweep
+//! over 157.50–159.50° at 0.08, 0.15 and 0.2 m, 603 angles).
+
+use slothsim::sim::TrunkVariant;
+
+mod common;
+
+#[test]
+fn a_failing_coarse_search_rescans_at_every_back_off_point() {
+    common::assert_transfers_pass(
+        TrunkVariant::ToTrunk,
+        &[(158.14, 0.2), (159.05, 0.2), (159.27, 0.15)],
+    );
+}
