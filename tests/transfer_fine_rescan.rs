@@ -1,12 +1,16 @@
-//! A goal-mode step search that finds nothing at the coarse stride re-scans
-//! its range at every back-off point before it counts as failed (issue 24;
-//! `Sloth::queue_candidates`, search.rs). Locked on a 0.15–0.2 m trunk after
-//! a branch → trunk transfer, every limb's coarse search failed although a
-//! fore limb had a valid step between two coarse points; the sloth gave up,
-//! backed off into new locks and was still walking at the time limit.
+//! A goal-mode step search that finds nothing at the coarse stride while no
+//! other limb has a step (a lock) re-scans its range at every back-off point
+//! before it counts as failed (issue 24; `Sloth::queue_candidates`,
+//! search.rs). Locked on a 0.15–0.2 m trunk after a branch → trunk
+//! transfer, every limb's coarse search failed although a fore limb had a
+//! valid step between two coarse points; the sloth gave up, backed off into
+//! new locks and was still walking at the time limit.
 //!
-//! Each case failed on main 987a4e8 (the three failures of a 0.01° sweep
-//! over 157.50–159.50° at 0.08, 0.15 and 0.2 m, 603 angles).
+//! The first three cases failed on main d45ee42 (the three failures of a
+//! 0.01° sweep over 157.50–159.50° at 0.08, 0.15 and 0.2 m, 603 angles).
+//! The fourth failed with a re-scan after *every* failing coarse search: a
+//! fore limb re-scanned a 5 cm step on the branch where its partner had the
+//! trunk, and the sloth circled there until the time limit.
 
 use slothsim::sim::TrunkVariant;
 
@@ -18,4 +22,9 @@ fn a_failing_coarse_search_rescans_at_every_back_off_point() {
         TrunkVariant::ToTrunk,
         &[(158.14, 0.2), (159.05, 0.2), (159.27, 0.15)],
     );
+}
+
+#[test]
+fn a_search_that_fails_while_another_limb_can_step_does_not_rescan() {
+    common::assert_transfers_pass(TrunkVariant::ToTrunk, &[(131.112, 0.2)]);
 }

@@ -367,15 +367,18 @@ impl Sloth {
                 return;
             }
             if !self.next_neighbour(env, li) && !self.start_retreat(env, li) {
-                // Goal mode: a search that found nothing at the coarse
-                // stride re-scans its own support (and on, as before) at
-                // every back-off point before it counts as failed: the
-                // coarse stride passes over a window of valid grips
-                // narrower than itself (branch_trunk 0.2 m 158.14°: locked
-                // on the trunk after the transfer, the left fore limb's one
-                // valid step lay between two coarse points). A search that
-                // finds a step does exactly what it did before.
-                if self.fine_rescans(li) {
+                // Goal mode, a lock: a search that found nothing at the
+                // coarse stride while no other limb has a step re-scans its
+                // own support (and on, as before) at every back-off point
+                // before it counts as failed: the coarse stride passes over
+                // a window of valid grips narrower than itself (branch_trunk
+                // 0.2 m 158.14°: locked on the trunk after the transfer, the
+                // left fore limb's one valid step lay between two coarse
+                // points). Where another limb has a step the search fails as
+                // before and that limb moves: re-scanned there, a fore limb
+                // took a 5 cm step on the branch instead of leaving the
+                // trunk to its partner (0.2 m 131.112°, which then circled).
+                if self.fine_rescans(env, li) {
                     self.fine_rescan |= 1 << li;
                     self.limbs[li].search = self.own_search(env, li);
                     continue;
@@ -400,12 +403,21 @@ impl Sloth {
 
     /// Whether limb `li`'s search, exhausted, re-scans at the fine stride
     /// (see [`Self::queue_candidates`]): goal mode, not a probe, searched at
-    /// the coarse stride (not stuck) and not re-scanned already.
-    fn fine_rescans(&self, li: usize) -> bool {
+    /// the coarse stride (not stuck), not re-scanned already, and a lock: no
+    /// other limb is in the air or has a step the search would take (one
+    /// after which yet another limb has a step, as the lookahead judges).
+    fn fine_rescans(&self, env: &LocoView<'_>, li: usize) -> bool {
         !self.wander
             && !self.limbs[li].probe
             && self.stuck_cause.is_none()
             && self.fine_rescan & (1 << li) == 0
+            && (0..4).all(|lj| {
+                lj == li
+                    || (self.limbs[lj].phase != LimbPhase::Swinging
+                        && !self.has_step_then(env, lj, |after| {
+                            (0..4).any(|lk| lk != lj && after.has_step(env, lk))
+                        }))
+            })
     }
 
     /// The search gave up (no limb found a step for two gait cycles, or a
