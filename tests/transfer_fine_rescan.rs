@@ -6,8 +6,9 @@
 //! valid step between two coarse points; the sloth gave up, backed off into
 //! new locks and was still walking at the time limit.
 //!
-//! The first three cases failed on main d45ee42 (the three failures of a
-//! 0.01° sweep over 157.50–159.50° at 0.08, 0.15 and 0.2 m, 603 angles).
+//! The first five cases fail on main d45ee42: the three failures of a 0.01°
+//! sweep over 157.50–159.50° at 0.08, 0.15 and 0.2 m (603 angles) and two
+//! more of the same sweep widened to 150–160° (3,003 angles).
 //! The fourth failed with a re-scan after *every* failing coarse search: a
 //! fore limb re-scanned a 5 cm step on the branch where its partner had the
 //! trunk, and the sloth circled there until the time limit.
@@ -20,7 +21,13 @@ mod common;
 fn a_failing_coarse_search_rescans_at_every_back_off_point() {
     common::assert_transfers_pass(
         TrunkVariant::ToTrunk,
-        &[(158.14, 0.2), (159.05, 0.2), (159.27, 0.15)],
+        &[
+            (158.14, 0.2),
+            (159.05, 0.2),
+            (159.27, 0.15),
+            (159.82, 0.08),
+            (151.22, 0.2),
+        ],
     );
 }
 
