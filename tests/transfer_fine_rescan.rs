@@ -9,9 +9,10 @@
 //! The first five cases fail on main d45ee42: the three failures of a 0.01°
 //! sweep over 157.50–159.50° at 0.08, 0.15 and 0.2 m (603 angles) and two
 //! more of the same sweep widened to 150–160° (3,003 angles).
-//! The fourth failed with a re-scan after *every* failing coarse search: a
-//! fore limb re-scanned a 5 cm step on the branch where its partner had the
-//! trunk, and the sloth circled there until the time limit.
+//! The second test's case (0.2 m 131.112°, which main passes) failed with a
+//! re-scan after *every* failing coarse search: a fore limb re-scanned a 5 cm
+//! step on the branch where its partner had the trunk, and the sloth circled
+//! there until the time limit.
 
 use slothsim::sim::TrunkVariant;
 

@@ -356,9 +356,10 @@ pub struct Sloth {
     #[serde(default)]
     pub close_up: bool,
     /// Goal mode: the limbs (bit `1 << li`) whose current step search found
-    /// nothing at the coarse stride and re-scans its range at every
-    /// back-off point before it counts as failed (`Sloth::queue_candidates`);
-    /// cleared when the limb starts a search. Checkpointed (format 31).
+    /// nothing at the coarse stride in a lock and re-scans its range at
+    /// every back-off point before it counts as failed
+    /// (`Sloth::queue_candidates`, `Sloth::fine_rescans`); cleared when the
+    /// limb starts a search. Checkpointed (format 31).
     #[serde(default)]
     pub fine_rescan: u8,
     /// Goal mode: step searches the lone fore limb across a locked transfer
