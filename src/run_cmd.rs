@@ -570,8 +570,9 @@ fn print_summary(s: &CrowdStats, wall_s: f64, out: &Path) {
         s.nan_count
     );
     println!(
-        "stuck sloths {} (no step in the last 10 s), stalled in place {} ({}+ turn-backs without travelling a step), turn-backs {}",
+        "stuck sloths {} (no step in the last 10 s; {} of them for over 60 s), stalled in place {} ({}+ turn-backs without travelling a step), turn-backs {}",
         s.stuck_sloths,
+        s.stuck.stood.get("over_60_s").map_or(0, |c| c.count),
         s.stuck.stalled_in_place.count,
         slothsim_sim::crowd::STALLED_TURNS,
         s.turn_backs

@@ -69,6 +69,14 @@ fn crowd_of_300_keeps_moving_for_40_s() {
         })
         .sum();
     assert_eq!(counted, n, "{stuck}");
+    // How long the stuck sloths have stood: every one in one band.
+    let stood = stuck["stood"].as_object().unwrap();
+    assert_eq!(
+        stood.keys().map(String::as_str).collect::<Vec<_>>(),
+        ["10_15_s", "15_60_s", "over_60_s"]
+    );
+    let in_bands: u64 = stood.values().map(|c| c["count"].as_u64().unwrap()).sum();
+    assert_eq!(in_bands, n, "{stuck}");
     // Stalled in place (8+ turn-backs without travel), stuck or not: listed apart.
     let stalled = &stuck["stalled_in_place"];
     let count = stalled["count"].as_u64().unwrap();

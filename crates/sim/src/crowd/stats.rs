@@ -219,7 +219,15 @@ pub struct StuckReport {
     pub by_cause: BTreeMap<&'static str, CauseCount>,
     /// Wanderers stalled in place ([`STALLED_TURNS`]), stuck or not.
     pub stalled_in_place: CauseCount,
+    /// The stuck sloths by how long they have stood since their last step
+    /// (or since this run began, for a resumed run): `10_15_s` (mostly
+    /// pauses the 10 s clock catches), `15_60_s` and `over_60_s` (frozen).
+    pub stood: BTreeMap<&'static str, CauseCount>,
 }
+
+/// The bands of [`StuckReport::stood`]: name and lower bound in seconds.
+pub const STOOD_BANDS: [(&str, f32); 3] =
+    [("10_15_s", 0.0), ("15_60_s", 15.0), ("over_60_s", 60.0)];
 
 /// Stuck sloths of one cause.
 #[derive(Clone, Debug, Default, Serialize)]
@@ -237,22 +245,35 @@ pub const CAUSE_EXAMPLES: usize = 10;
 pub const SEARCHING: &str = "searching";
 
 impl StuckReport {
-    /// Of `(id, cause)` for every stuck sloth and the ids of the sloths
-    /// stalled in place, in id order, among `sloths`.
-    pub fn of(stuck: &[(u32, Option<StuckCause>)], stalled: &[u32], sloths: u32) -> Self {
+    /// Of `(id, cause, seconds stood)` for every stuck sloth and the ids of
+    /// the sloths stalled in place, in id order, among `sloths`.
+    pub fn of(stuck: &[(u32, Option<StuckCause>, f32)], stalled: &[u32], sloths: u32) -> Self {
         let mut by_cause: BTreeMap<&'static str, CauseCount> = StuckCause::ALL
             .iter()
             .map(|c| c.name())
             .chain([SEARCHING])
             .map(|n| (n, CauseCount::default()))
             .collect();
-        for &(id, cause) in stuck {
-            let e = by_cause
-                .entry(cause.map_or(SEARCHING, StuckCause::name))
-                .or_default();
-            e.count += 1;
-            if e.example_ids.len() < CAUSE_EXAMPLES {
-                e.example_ids.push(id);
+        let mut stood: BTreeMap<&'static str, CauseCount> = STOOD_BANDS
+            .iter()
+            .map(|&(n, _)| (n, CauseCount::default()))
+            .collect();
+        for &(id, cause, stood_s) in stuck {
+            let band = STOOD_BANDS
+                .iter()
+                .rev()
+                .find(|&&(_, from)| stood_s >= from)
+                .map_or(STOOD_BANDS[0].0, |&(n, _)| n);
+            for e in [
+                by_cause
+                    .entry(cause.map_or(SEARCHING, StuckCause::name))
+                    .or_default(),
+                stood.entry(band).or_default(),
+            ] {
+                e.count += 1;
+                if e.example_ids.len() < CAUSE_EXAMPLES {
+                    e.example_ids.push(id);
+                }
             }
         }
         StuckReport {
@@ -263,6 +284,7 @@ impl StuckReport {
                 count: stalled.len() as u32,
                 example_ids: stalled.iter().copied().take(CAUSE_EXAMPLES).collect(),
             },
+            stood,
         }
     }
 }
@@ -390,6 +412,7 @@ impl Crowd {
             bool,
             Option<StuckCause>,
             bool,
+            f32,
         );
         let mut rows: Vec<Row> = q
             .iter(&self.world)
@@ -404,6 +427,7 @@ impl Crowd {
                     stuck,
                     s.0.stuck_cause,
                     s.0.wander && s.0.stall_from.is_some_and(|(_, n)| n >= STALLED_TURNS),
+                    s.0.time - o.last_step_s,
                 )
             })
             .collect();
@@ -411,8 +435,11 @@ impl Crowd {
         let judge = JudgeReport::aggregate(rows.iter().map(|r| &r.3))
             .unwrap_or_else(|| crowd_judge().finish());
         let gait = GaitReport::aggregate(rows.iter().map(|r| &r.4));
-        let stuck_causes: Vec<(u32, Option<StuckCause>)> =
-            rows.iter().filter(|r| r.5).map(|r| (r.0, r.6)).collect();
+        let stuck_causes: Vec<(u32, Option<StuckCause>, f32)> = rows
+            .iter()
+            .filter(|r| r.5)
+            .map(|r| (r.0, r.6, r.8))
+            .collect();
         let stalled: Vec<u32> = rows.iter().filter(|r| r.7).map(|r| r.0).collect();
         let stuck = StuckReport::of(&stuck_causes, &stalled, rows.len() as u32);
         let stuck_ids: Vec<u32> = stuck_causes.iter().map(|r| r.0).collect();
@@ -513,8 +540,11 @@ mod tests {
     /// list with its lowest [`CAUSE_EXAMPLES`] ids.
     #[test]
     fn stuck_report_counts_causes_and_stalled_sloths() {
-        let stuck: Vec<(u32, Option<StuckCause>)> = (0..30)
-            .map(|id| (id, (id % 3 != 0).then_some(StuckCause::NoGrip)))
+        let stuck: Vec<(u32, Option<StuckCause>, f32)> = (0..30)
+            .map(|id| {
+                let stood_s = 10.5 + 3.0 * id as f32;
+                (id, (id % 3 != 0).then_some(StuckCause::NoGrip), stood_s)
+            })
             .collect();
         let stalled: Vec<u32> = (5..50).step_by(2).collect();
         let r = StuckReport::of(&stuck, &stalled, 1000);
@@ -530,5 +560,13 @@ mod tests {
         assert_eq!(counted, 30);
         assert_eq!(r.stalled_in_place.count, stalled.len() as u32);
         assert_eq!(r.stalled_in_place.example_ids, stalled[..CAUSE_EXAMPLES]);
+        // Stood 10.5 + 3 id s: ids 0..=1 under 15 s, 2..=16 under 60 s, 17.. over.
+        assert_eq!(r.stood["10_15_s"].count, 2);
+        assert_eq!(r.stood["15_60_s"].count, 15);
+        assert_eq!(r.stood["over_60_s"].count, 13);
+        assert_eq!(
+            r.stood["over_60_s"].example_ids,
+            (17..27).collect::<Vec<_>>()
+        );
     }
 }
