@@ -226,7 +226,8 @@ pub enum StuckCause {
     /// In the middle of a branch ↔ trunk transfer, with no step even once
     /// the other sloths are ignored.
     TransferFailed,
-    /// Other sloths hold every step it had ahead (without them a step passes).
+    /// Other sloths hold every step it had ahead (without them a step passes;
+    /// a wanderer's only where it leads into a stance some limb can leave).
     Crowded,
     /// No grip within reach passes the checks, with no other sloth in the
     /// way and away from a support end.

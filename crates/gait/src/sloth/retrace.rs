@@ -344,4 +344,86 @@ mod tests {
             "{cases} dead straddles, {steps_back} steps back"
         );
     }
+
+    /// The straddles of the walks above (the `turn` preset at random
+    /// angles, steps remembered), made nearly dead: with the longest step
+    /// cut to 31 mm some limb still has a step, but every such step leads
+    /// into a stance no limb can leave either way (the stuck search refuses
+    /// it: [`Sloth::keeps_a_way`]). Stalled in a crowd (the crowd grid
+    /// present, no other sloth near), the give-up counts no usable step, so
+    /// the cause is not `crowded` / `boxed_in`, and the sloth retraces.
+    /// Before, the unusable step counted the sloth `crowded`, and a sloth
+    /// so counted never retraced: seed 1's 1706 stood 227 s astride two
+    /// branches of the 5,000-sloth crowd.
+    #[test]
+    fn a_straddler_whose_only_steps_lead_into_dead_stances_retraces() {
+        let mut rnd = xorshift(47);
+        let (mut cases, mut seen) = (0, 0);
+        for _ in 0..12 {
+            let angle = 60.0 + 120.0 * rnd();
+            let preset = Preset::new(PresetKind::Turn, Some(angle)).unwrap();
+            let cfg = LocomotionConfig::profile(Profile::Free);
+            let short = LocomotionConfig {
+                max_step_m: 0.031,
+                ..cfg.clone()
+            };
+            let env =
+                LocoEnv::new(cfg, &Rig::sloth(), TraceScene::new(preset.scene.clone())).unwrap();
+            let dead_env =
+                LocoEnv::new(short, &Rig::sloth(), TraceScene::new(preset.scene.clone())).unwrap();
+            let mut grid = crate::CrowdGrid::new(0.3);
+            grid.rebuild(std::iter::empty());
+            let (view, dead_view) = (env.view(), dead_env.view_with(Some(&grid)));
+            let mut sloth = Sloth::spawn(&view, &SpawnHint::from(preset.start), None);
+            sloth.wander = true;
+            let (mut batch, mut near) = (TraceBatch::default(), NearRing::default());
+            for frame in 0..2400 {
+                tick(&mut sloth, &mut near, &view, &mut batch);
+                let a = sloth.limbs[0].grip.support;
+                if frame % 20 != 0
+                    || sloth.limbs.iter().all(|l| l.grip.support == a)
+                    || sloth.limbs.iter().any(|l| l.phase != LimbPhase::Planted)
+                    || sloth.transfer.is_some()
+                    || sloth.turn.is_some()
+                    || sloth.trail.len == 0
+                {
+                    continue;
+                }
+                let mut stalled = sloth;
+                stalled.stall_from = Some((stalled.body_pos, 2));
+                stalled.stalled_turns = 2;
+                seen += 1;
+                let stepping: Vec<usize> = (0..4)
+                    .filter(|&li| stalled.has_step(&dead_view, li))
+                    .collect();
+                if stepping.is_empty()
+                    || stepping.iter().any(|&li| {
+                        stalled.has_step_then(&dead_view, li, |after| after.has_a_way(&dead_view))
+                    })
+                {
+                    continue;
+                }
+                stalled.give_up(&dead_view);
+                assert!(
+                    !matches!(
+                        stalled.stuck_cause,
+                        Some(StuckCause::Crowded | StuckCause::BoxedIn)
+                    ),
+                    "angle {angle}: {:?}",
+                    stalled.stuck_cause
+                );
+                assert!(
+                    stalled.trail.retrace_left > 0,
+                    "angle {angle}: retraces ({:?})",
+                    stalled.stuck_cause
+                );
+                cases += 1;
+            }
+        }
+        eprintln!("{cases} of {seen} straddles with only dead-end steps");
+        assert!(
+            cases >= 5,
+            "{cases} of {seen} straddles with only dead-end steps"
+        );
+    }
 }

@@ -989,7 +989,9 @@ impl Sloth {
     }
 
     /// Why no limb found a step (called when the search gives up): other
-    /// sloths in the way (some limb has a step once they are ignored),
+    /// sloths in the way (some limb has a step once they are ignored; a
+    /// wanderer's step only counts where it leads into a stance some limb
+    /// can leave, as its stuck search will judge it),
     /// after a turn back in both directions; else a transfer under way; the
     /// leading limbs within a search distance of their support's end; else
     /// nothing within reach. Other sloths come first also mid-transfer:
@@ -1001,7 +1003,21 @@ impl Sloth {
                 crowd: None,
                 ..*env
             };
-            if (0..4).any(|lj| self.has_step(&alone, lj)) {
+            // A wanderer's step counts only where its search, stuck from
+            // now on, would take it: into a stance some limb can leave
+            // ([`Self::keeps_a_way`]). Traced in the 5,000 × 300 s crowd
+            // (seed 1's 1706, frozen 227 s astride two branches): its one
+            // step led into a dead stance, so every search failed, yet the
+            // step counted it `crowded` / `boxed_in`, and a sloth so counted
+            // never retraced the trail it held.
+            let usable = |lj: usize| {
+                if self.wander {
+                    self.has_step_then(&alone, lj, |after| after.has_a_way(env))
+                } else {
+                    self.has_step(&alone, lj)
+                }
+            };
+            if (0..4).any(usable) {
                 return if self.stalled_turns > 0 {
                     StuckCause::BoxedIn
                 } else {
