@@ -231,6 +231,22 @@ mod tests {
         s.limb_map(|l| l.grip.point.to_array().map(f32::to_bits))
     }
 
+    /// The `turn` preset at `angle`, the free profile's environment there,
+    /// and one with the longest step cut to 31 mm (where most straddles of
+    /// a walk have no step).
+    fn turn_envs(angle: f32) -> (Preset, LocoEnv, LocoEnv) {
+        let preset = Preset::new(PresetKind::Turn, Some(angle)).unwrap();
+        let cfg = LocomotionConfig::profile(Profile::Free);
+        let short = LocomotionConfig {
+            max_step_m: 0.031,
+            ..cfg.clone()
+        };
+        let env = LocoEnv::new(cfg, &Rig::sloth(), TraceScene::new(preset.scene.clone())).unwrap();
+        let dead_env =
+            LocoEnv::new(short, &Rig::sloth(), TraceScene::new(preset.scene.clone())).unwrap();
+        (preset, env, dead_env)
+    }
+
     /// Wanderers walked across the junction of the `turn` preset (angles
     /// drawn at random), taken where they straddle its two branches (all
     /// limbs planted, no transfer or turn) with steps remembered. Each such
@@ -249,16 +265,7 @@ mod tests {
         let (mut cases, mut steps_back) = (0, 0);
         for _ in 0..12 {
             let angle = 60.0 + 120.0 * rnd();
-            let preset = Preset::new(PresetKind::Turn, Some(angle)).unwrap();
-            let cfg = LocomotionConfig::profile(Profile::Free);
-            let short = LocomotionConfig {
-                max_step_m: 0.031,
-                ..cfg.clone()
-            };
-            let env =
-                LocoEnv::new(cfg, &Rig::sloth(), TraceScene::new(preset.scene.clone())).unwrap();
-            let dead_env =
-                LocoEnv::new(short, &Rig::sloth(), TraceScene::new(preset.scene.clone())).unwrap();
+            let (preset, env, dead_env) = turn_envs(angle);
             let (view, dead_view) = (env.view(), dead_env.view());
             let mut sloth = Sloth::spawn(&view, &SpawnHint::from(preset.start), None);
             sloth.wander = true;
@@ -361,16 +368,7 @@ mod tests {
         let (mut cases, mut seen) = (0, 0);
         for _ in 0..12 {
             let angle = 60.0 + 120.0 * rnd();
-            let preset = Preset::new(PresetKind::Turn, Some(angle)).unwrap();
-            let cfg = LocomotionConfig::profile(Profile::Free);
-            let short = LocomotionConfig {
-                max_step_m: 0.031,
-                ..cfg.clone()
-            };
-            let env =
-                LocoEnv::new(cfg, &Rig::sloth(), TraceScene::new(preset.scene.clone())).unwrap();
-            let dead_env =
-                LocoEnv::new(short, &Rig::sloth(), TraceScene::new(preset.scene.clone())).unwrap();
+            let (preset, env, dead_env) = turn_envs(angle);
             let mut grid = crate::CrowdGrid::new(0.3);
             grid.rebuild(std::iter::empty());
             let (view, dead_view) = (env.view(), dead_env.view_with(Some(&grid)));
